@@ -1,0 +1,74 @@
+"""Every tolerance and fixed setting in one documented object (trimesh ``constants.py`` habit).
+
+Call sites never write a bare tolerance: they read ``TOL`` (geometry) or ``SANDBOX`` (limits).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """Geometric tolerances, lengths in millimetres, angles in radians unless named ``_deg``.
+
+    Attributes:
+        placement_mm: max distance between a child's mate frame and its parent's after placement.
+        placement_rad: max angle between those frames.
+        residual_mm: a secondary static mate whose residual exceeds this is reported as a finding.
+        residual_rad: same, for rotation.
+        contact_mm: two parts closer than this touch (connectivity, contact regions).
+        mesh_linear_mm: tessellation linear deflection for every shipped mesh (fixed).
+        mesh_angular_rad: tessellation angular deflection (fixed).
+        mesh_weld_mm: vertices closer than this are welded before topology is counted.
+        degenerate_area_mm2: triangles with less area are dropped (OCCT poles, fillet corners).
+        span_tau: connectivity gate threshold on rho = span(component) / span(model).
+        registration_tau: mate gate: registration area must reach tau_a * d^2.
+        registration_band_mm: faces within this distance of each other count as registered.
+        penetration_slack_mm: added to the fit's own interference to give delta_max(fit).
+        sharp_dihedral_deg: Shrp60 threshold.
+        volume_rel: relative volume tolerance in golden comparisons.
+        bbox_mm: absolute bbox tolerance in golden comparisons.
+    """
+
+    placement_mm: float = 1e-6
+    placement_rad: float = 1e-9
+    residual_mm: float = 1e-3
+    residual_rad: float = 1e-6
+    contact_mm: float = 1e-3
+    mesh_linear_mm: float = 0.1
+    mesh_angular_rad: float = 0.35
+    mesh_weld_mm: float = 1e-5
+    degenerate_area_mm2: float = 1e-10
+    span_tau: float = 0.01
+    registration_tau: float = 0.05
+    registration_band_mm: float = 0.05
+    penetration_slack_mm: float = 0.01
+    sharp_dihedral_deg: float = 60.0
+    volume_rel: float = 1e-6
+    bbox_mm: float = 1e-3
+
+
+@dataclass(frozen=True)
+class SandboxLimits:
+    """Resource limits for one sandboxed compile (a forked child of the warm worker).
+
+    Attributes:
+        cpu_s: RLIMIT_CPU of the child; the kernel sends SIGXCPU then SIGKILL.
+        wall_s: the parent kills the child after this many wall-clock seconds.
+        address_space_bytes: RLIMIT_AS; a memory bomb fails with MemoryError or is killed.
+        file_size_bytes: RLIMIT_FSIZE; the child may only write in its scratch dir anyway.
+        open_files: RLIMIT_NOFILE.
+        recursion: Python recursion limit in the child.
+    """
+
+    cpu_s: int = 60
+    wall_s: float = 90.0
+    address_space_bytes: int = 6 * 1024**3
+    file_size_bytes: int = 256 * 1024**2
+    open_files: int = 256
+    recursion: int = 2000
+
+
+TOL = Tolerances()
+SANDBOX = SandboxLimits()

@@ -1,0 +1,168 @@
+"""The OCCT boundary for the parent process: raw OCP, no build123d (imports in ~1 s).
+
+Every OCCT exception is wrapped into :class:`KernelError` here. Shapes cross the process
+boundary as OCCT binary BRep bytes; transforms as 4x4 numpy matrices in millimetres.
+"""
+
+from __future__ import annotations
+
+import io
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from .config import TOL
+from .errors import KernelError
+
+
+def _ocp():  # lazy: keeps `procedura-brep --help` instant
+    from OCP import BinTools, BRepBndLib, BRepCheck, BRepGProp, BRepMesh, Bnd, GProp, TopAbs
+    from OCP import TopExp, TopLoc, TopoDS, gp, BRep, BRepAlgoAPI
+    return locals()
+
+
+def read_brep(data: bytes):
+    """A TopoDS_Shape from OCCT binary BRep bytes."""
+    o = _ocp()
+    shape = o["TopoDS"].TopoDS_Shape()
+    try:
+        o["BinTools"].BinTools.Read_s(shape, io.BytesIO(data))
+    except Exception as exc:  # OCCT raises Standard_Failure subclasses
+        raise KernelError(f"reading BRep failed: {exc}") from exc
+    if shape.IsNull():
+        raise KernelError("reading BRep gave an empty shape")
+    return shape
+
+
+def write_brep(shape) -> bytes:
+    """OCCT binary BRep bytes of ``shape``."""
+    o = _ocp()
+    buf = io.BytesIO()
+    o["BinTools"].BinTools.Write_s(shape, buf)
+    return buf.getvalue()
+
+
+def trsf(matrix: np.ndarray):
+    """gp_Trsf of a rigid 4x4 matrix (mm)."""
+    o = _ocp()
+    t = o["gp"].gp_Trsf()
+    m = np.asarray(matrix, dtype=float)
+    t.SetValues(*m[0, :4], *m[1, :4], *m[2, :4])
+    return t
+
+
+def located(shape, matrix: np.ndarray):
+    """``shape`` moved by the rigid transform ``matrix`` (shares geometry, no copy)."""
+    o = _ocp()
+    return shape.Moved(o["TopLoc"].TopLoc_Location(trsf(matrix)))
+
+
+def volume(shape) -> float:
+    """Solid volume, mm^3 (sums every solid of a compound)."""
+    o = _ocp()
+    props = o["GProp"].GProp_GProps()
+    o["BRepGProp"].BRepGProp.VolumeProperties_s(shape, props)
+    return float(props.Mass())
+
+
+def area(shape) -> float:
+    """Surface area, mm^2."""
+    o = _ocp()
+    props = o["GProp"].GProp_GProps()
+    o["BRepGProp"].BRepGProp.SurfaceProperties_s(shape, props)
+    return float(props.Mass())
+
+
+def bbox(shape, *, optimal: bool = True) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """((xmin, ymin, zmin), (xmax, ymax, zmax)) in mm; exact (optimal) by default."""
+    o = _ocp()
+    box = o["Bnd"].Bnd_Box()
+    if optimal:
+        o["BRepBndLib"].BRepBndLib.AddOptimal_s(shape, box, False, False)
+    else:
+        o["BRepBndLib"].BRepBndLib.Add_s(shape, box, True)
+    lo, hi = box.CornerMin(), box.CornerMax()
+    return (lo.X(), lo.Y(), lo.Z()), (hi.X(), hi.Y(), hi.Z())
+
+
+def is_valid(shape) -> bool:
+    """BRepCheck validity."""
+    return bool(_ocp()["BRepCheck"].BRepCheck_Analyzer(shape).IsValid())
+
+
+def common_volume(a, b) -> float:
+    """Volume of ``a & b`` (interference), mm^3."""
+    o = _ocp()
+    op = o["BRepAlgoAPI"].BRepAlgoAPI_Common(a, b)
+    if not op.IsDone():
+        raise KernelError("boolean common failed")
+    return volume(op.Shape())
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """A triangle mesh in mm: ``vertices`` (N, 3) float64, ``faces`` (M, 3) int64."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+
+
+def tessellate(shape, *, linear: float = TOL.mesh_linear_mm, angular: float = TOL.mesh_angular_rad,
+               parallel: bool = False) -> Mesh:
+    """Mesh ``shape`` with fixed settings; vertices are in the shape's located (world) frame.
+
+    Degenerate (zero-area) triangles are dropped and coincident vertices welded, so component
+    counts are topological. ``parallel`` stays False in any process that may later fork.
+    """
+    o = _ocp()
+    BRep, TopAbs, TopExp, TopoDS = o["BRep"], o["TopAbs"], o["TopExp"], o["TopoDS"]
+    o["BRepMesh"].BRepMesh_IncrementalMesh(shape, linear, False, angular, parallel)
+    verts: list[np.ndarray] = []
+    tris: list[np.ndarray] = []
+    offset = 0
+    exp = TopExp.TopExp_Explorer(shape, TopAbs.TopAbs_FACE)
+    while exp.More():
+        face = TopoDS.TopoDS.Face(exp.Current()) if hasattr(TopoDS.TopoDS, "Face") else TopoDS.TopoDS.Face_s(exp.Current())
+        loc = o["TopLoc"].TopLoc_Location()
+        tri = BRep.BRep_Tool.Triangulation_s(face, loc)
+        exp.Next()
+        if tri is None:
+            continue
+        t = loc.Transformation()
+        n = tri.NbNodes()
+        pts = np.empty((n, 3))
+        for i in range(1, n + 1):
+            p = tri.Node(i).Transformed(t)
+            pts[i - 1] = (p.X(), p.Y(), p.Z())
+        idx = np.empty((tri.NbTriangles(), 3), dtype=np.int64)
+        reverse = face.Orientation() == TopAbs.TopAbs_REVERSED
+        for i in range(1, tri.NbTriangles() + 1):
+            a, b, c = tri.Triangle(i).Get()
+            idx[i - 1] = (a, c, b) if reverse else (a, b, c)
+        verts.append(pts)
+        tris.append(idx - 1 + offset)
+        offset += n
+    if not verts:
+        return Mesh(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64))
+    return clean_mesh(np.vstack(verts), np.vstack(tris))
+
+
+def clean_mesh(vertices: np.ndarray, faces: np.ndarray, *, weld: float = TOL.mesh_weld_mm,
+               min_area: float = TOL.degenerate_area_mm2) -> Mesh:
+    """Weld vertices closer than ``weld`` and drop triangles with area below ``min_area``."""
+    key = np.round(vertices / weld).astype(np.int64)
+    _, first, inverse = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    v = vertices[first]
+    f = inverse.reshape(-1)[faces]
+    cross = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    keep = (0.5 * np.linalg.norm(cross, axis=1) > min_area) & (f[:, 0] != f[:, 1]) & \
+        (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
+    return Mesh(v, f[keep])
+
+
+@lru_cache(maxsize=1)
+def version() -> str:
+    """The OCCT version string."""
+    from OCP import Standard
+    return str(getattr(Standard, "Standard_Version", lambda: "unknown"))

@@ -1,0 +1,105 @@
+"""Closed-form placement: ``T_child = T_parent * F_parent * Delta * F_child^-1``.
+
+Pure numpy on 4x4 homogeneous matrices (millimetres), so the parent process can re-derive and
+check every placement without the CAD kernel. ``Delta`` is the joint's motion in the mate frame:
+identity for static mates, a rotation about Z for ``revolute``, a translation along Z for
+``prismatic``, a rotation about the frame origin for ``spherical``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..errors import RangeError
+
+
+def rot_x(deg: float) -> np.ndarray:
+    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+    return np.array([[1, 0, 0, 0], [0, c, -s, 0], [0, s, c, 0], [0, 0, 0, 1]], dtype=float)
+
+
+def rot_y(deg: float) -> np.ndarray:
+    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+    return np.array([[c, 0, s, 0], [0, 1, 0, 0], [-s, 0, c, 0], [0, 0, 0, 1]], dtype=float)
+
+
+def rot_z(deg: float) -> np.ndarray:
+    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+    return np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], dtype=float)
+
+
+def trans(x: float = 0.0, y: float = 0.0, z: float = 0.0) -> np.ndarray:
+    m = np.eye(4)
+    m[:3, 3] = (x, y, z)
+    return m
+
+
+def rigid_inverse(m: np.ndarray) -> np.ndarray:
+    """Inverse of a rigid transform (exact transpose of the rotation)."""
+    out = np.eye(4)
+    r = m[:3, :3]
+    out[:3, :3] = r.T
+    out[:3, 3] = -r.T @ m[:3, 3]
+    return out
+
+
+def check_value(mate: str, mtype: str, value: float | Sequence[float],
+                *, limits: tuple[float, float] | None = None, cone: float | None = None) -> None:
+    """Refuse a joint value outside its range, naming the mate, the value and the range.
+
+    Raises:
+        RangeError: revolute angle (deg) or prismatic position (mm) outside ``limits``, or a
+            spherical tilt (deg) beyond ``cone``.
+    """
+    if mtype in ("revolute", "prismatic"):
+        v = float(value)  # type: ignore[arg-type]
+        if limits is not None and not (limits[0] <= v <= limits[1]):
+            unit = "deg" if mtype == "revolute" else "mm"
+            raise RangeError(f"{mate} ({mtype}) position", v, limits[0], limits[1], unit=unit)
+    elif mtype == "spherical" and cone is not None:
+        tilt = spherical_tilt_deg(spherical_delta(value))  # type: ignore[arg-type]
+        if tilt > cone + 1e-9:
+            raise RangeError(f"{mate} (spherical) tilt", tilt, 0.0, cone, unit="deg")
+
+
+def spherical_delta(value: Sequence[float]) -> np.ndarray:
+    """Rotation for a spherical joint value given as (rx, ry, rz) degrees, applied X then Y then Z."""
+    rx, ry, rz = (float(v) for v in value)
+    return rot_z(rz) @ rot_y(ry) @ rot_x(rx)
+
+
+def spherical_tilt_deg(m: np.ndarray) -> float:
+    """Angle between the rotated Z axis and the original Z axis, degrees (the cone measure)."""
+    return math.degrees(math.acos(max(-1.0, min(1.0, float(m[2, 2])))))
+
+
+def delta(mtype: str, value: float | Sequence[float] | None = None) -> np.ndarray:
+    """``Delta`` for a mate type at joint value ``value`` (None = home/identity)."""
+    if value is None or mtype not in ("revolute", "prismatic", "spherical"):
+        return np.eye(4)
+    if mtype == "revolute":
+        return rot_z(float(value))  # type: ignore[arg-type]
+    if mtype == "prismatic":
+        return trans(z=float(value))  # type: ignore[arg-type]
+    return spherical_delta(value)  # type: ignore[arg-type]
+
+
+def solve(parent_world: np.ndarray, f_parent: np.ndarray, f_child: np.ndarray,
+          d: np.ndarray | None = None) -> np.ndarray:
+    """The child's world transform so that its frame lands on the parent's (times ``d``)."""
+    d = np.eye(4) if d is None else d
+    return parent_world @ f_parent @ d @ rigid_inverse(f_child)
+
+
+def residual(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
+    """(distance mm, angle rad) between two rigid transforms."""
+    dist = float(np.linalg.norm(a[:3, 3] - b[:3, 3]))
+    r = a[:3, :3].T @ b[:3, :3]
+    cos = max(-1.0, min(1.0, (float(np.trace(r)) - 1.0) / 2.0))
+    # acos loses precision near 0; use the skew part for small angles
+    skew = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]]) / 2.0
+    ang = math.atan2(float(np.linalg.norm(skew)), cos)
+    return dist, ang

@@ -1,0 +1,197 @@
+"""The closed mate vocabulary: nine static types and three kinematic ones.
+
+Every type fixes its degree-of-freedom signature, the fit classes it accepts, and its options
+(with defaults and allowed ranges). This module is pure data plus validation; the geometry of
+each type lives in :mod:`procedura_brep.mates.features` and placement in
+:mod:`procedura_brep.mates.placement`.
+
+Frame convention: a mate frame's +Z is the mate axis and points from the parent into the child.
+After placement the child's frame coincides with the parent's (same origin, same axes), offset
+only by ``Delta``: a rotation about Z for ``revolute``, a translation along Z for ``prismatic``,
+a rotation for ``spherical``; static types apply no axial offset (their fit offset is per-side,
+radial or lateral, and is cut into the features).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+from ..errors import MateError
+from .fits import FIT_CLASSES, Fit, FitClass, iso273, iso286
+
+MateKind = Literal["static", "kinematic"]
+
+
+@dataclass(frozen=True)
+class Option:
+    """One type-specific option: default and allowed closed range (None = unbounded)."""
+
+    default: Any
+    low: float | None = None
+    high: float | None = None
+    integer: bool = False
+    doc: str = ""
+
+
+@dataclass(frozen=True)
+class Dof:
+    """Degree-of-freedom signature in the mate frame: free translation and rotation axes."""
+
+    translation: tuple[str, ...] = ()
+    rotation: tuple[str, ...] = ()
+
+    @property
+    def count(self) -> int:
+        return len(self.translation) + len(self.rotation)
+
+    def as_dict(self) -> dict:
+        return {"count": self.count, "translation": list(self.translation),
+                "rotation": list(self.rotation)}
+
+
+@dataclass(frozen=True)
+class MateType:
+    """A mate type: name, kind, DOF signature, accepted fits and options."""
+
+    name: str
+    kind: MateKind
+    dof: Dof
+    fits: tuple[FitClass, ...]
+    default_fit: FitClass
+    options: dict[str, Option] = field(default_factory=dict)
+    table: Literal["iso286", "iso273"] = "iso286"
+    doc: str = ""
+
+    def resolve_fit(self, nominal: float, fit: FitClass) -> Fit:
+        """The resolved fit for ``nominal`` (mm) under this type's table."""
+        return iso273(nominal, fit) if self.table == "iso273" else iso286(nominal, fit)
+
+
+_FEAT = Option(True, doc="build the male/female features (False: frames only)")
+_DEPTH = Option(None, 0.1, 10000.0, doc="engagement depth along -Z, mm (default from nominal)")
+
+STATIC_DOF = Dof()
+
+TYPES: dict[str, MateType] = {t.name: t for t in [
+    MateType("bolt_pattern", "static", STATIC_DOF, ("clearance", "location"), "clearance",
+             {"count": Option(4, 2, 36, integer=True, doc="number of bolts"),
+              "pcd": Option(None, 1.0, 5000.0, doc="pitch circle diameter, mm (default 4 d)"),
+              "length": Option(None, 0.1, 5000.0, doc="stud length below the frame, mm (default 1.5 d)"),
+              "angle0": Option(0.0, -360.0, 360.0, doc="angle of the first bolt from +X, deg"),
+              "features": _FEAT},
+             table="iso273",
+             doc="studs of M-size d on the child through ISO 273 clearance holes in the parent"),
+    MateType("peg_socket", "static", STATIC_DOF, ("clearance", "location", "press"), "location",
+             {"depth": _DEPTH, "features": _FEAT},
+             doc="cylindrical peg of diameter d on the child in a blind socket in the parent"),
+    MateType("seat_face", "static", STATIC_DOF, ("clearance", "location"), "location",
+             {"depth": _DEPTH, "features": _FEAT},
+             doc="round seating pad of diameter d on the child in a spot-faced counterbore"),
+    MateType("flange", "static", STATIC_DOF, ("clearance", "location"), "location",
+             {"count": Option(6, 3, 36, integer=True, doc="number of flange studs"),
+              "pcd": Option(None, 1.0, 5000.0, doc="stud pitch circle, mm (default 1.5 d)"),
+              "bolt": Option(None, 1.6, 64.0, doc="stud M-size, mm (default from d)"),
+              "features": _FEAT},
+             doc="pilot spigot of diameter d plus a ring of studs, into a pilot recess and holes"),
+    MateType("tab_slot", "static", STATIC_DOF, ("clearance", "location", "press"), "location",
+             {"thickness": Option(None, 0.1, 1000.0, doc="tab thickness, mm (default 0.25 d)"),
+              "depth": _DEPTH, "features": _FEAT},
+             doc="rectangular tab of width d (along frame X) in a matching slot"),
+    MateType("press_fit", "static", STATIC_DOF, ("press", "location"), "press",
+             {"depth": _DEPTH, "features": _FEAT},
+             doc="pin of diameter d pressed into an interference bore"),
+    MateType("lip_rabbet", "static", STATIC_DOF, ("clearance", "location"), "location",
+             {"wall": Option(None, 0.1, 1000.0, doc="lip wall thickness, mm (default 0.06 d)"),
+              "depth": _DEPTH, "features": _FEAT},
+             doc="annular lip of outer diameter d on the child in an annular groove"),
+    MateType("snap_tab", "static", STATIC_DOF, ("snap",), "snap",
+             {"depth": _DEPTH, "features": _FEAT},
+             doc="cantilever tab of width d with a hook, preloaded into a window by the snap fit"),
+    MateType("key", "static", STATIC_DOF, ("clearance", "location", "press"), "location",
+             {"length": Option(None, 0.1, 5000.0, doc="key length along frame Y, mm (default 3 d)"),
+              "features": _FEAT},
+             doc="square key of width d, half in the child, half in a keyway in the parent"),
+    MateType("revolute", "kinematic", Dof(rotation=("z",)), ("clearance", "location"), "clearance",
+             {"limits": Option(None, -360.0, 360.0, doc="(lo, hi) deg, or None for continuous"),
+              "home": Option(0.0, -360.0, 360.0, doc="angle at which the child is placed, deg"),
+              "effort": Option(10.0, 0.0, 1e6, doc="max torque, N m"),
+              "velocity": Option(3.0, 0.0, 1e4, doc="max speed, rad/s"),
+              "depth": _DEPTH, "features": _FEAT},
+             doc="1 rotational DOF about frame Z: a pin of diameter d in a bore"),
+    MateType("prismatic", "kinematic", Dof(translation=("z",)), ("clearance", "location"), "clearance",
+             {"limits": Option(None, -10000.0, 10000.0, doc="(lo, hi) mm along frame Z, required"),
+              "home": Option(0.0, -10000.0, 10000.0, doc="position at which the child is placed, mm"),
+              "effort": Option(100.0, 0.0, 1e6, doc="max force, N"),
+              "velocity": Option(0.1, 0.0, 1e3, doc="max speed, m/s"),
+              "depth": _DEPTH, "features": _FEAT},
+             doc="1 translational DOF along frame Z: a square guide bar of width d in a slot"),
+    MateType("spherical", "kinematic", Dof(rotation=("x", "y", "z")), ("clearance", "location"),
+             "clearance",
+             {"cone": Option(30.0, 0.1, 180.0, doc="cone half-angle limit, deg"),
+              "effort": Option(10.0, 0.0, 1e6, doc="max torque, N m"),
+              "velocity": Option(3.0, 0.0, 1e4, doc="max speed, rad/s"),
+              "features": _FEAT},
+             doc="3 rotational DOF about the frame origin: a ball of diameter d in a socket"),
+]}
+
+STATIC_TYPES = tuple(n for n, t in TYPES.items() if t.kind == "static")
+KINEMATIC_TYPES = tuple(n for n, t in TYPES.items() if t.kind == "kinematic")
+
+
+def get_type(mate: str, name: str) -> MateType:
+    """The type called ``name``, or a MateError listing the vocabulary."""
+    if name not in TYPES:
+        raise MateError(mate, f"unknown mate type {name!r}; use one of: {', '.join(TYPES)}")
+    return TYPES[name]
+
+
+def check_options(mate: str, mtype: MateType, fit: str, options: dict[str, Any]) -> dict[str, Any]:
+    """Validate ``fit`` and ``options`` for ``mtype``; return options with defaults filled in."""
+    if fit not in FIT_CLASSES:
+        raise MateError(mate, f"fit {fit!r} is not a fit class; use one of: {', '.join(FIT_CLASSES)}")
+    if fit not in mtype.fits:
+        raise MateError(mate, f"a {mtype.name} mate takes fit {' or '.join(mtype.fits)}, not {fit!r}")
+    unknown = sorted(set(options) - set(mtype.options))
+    if unknown:
+        raise MateError(mate, f"unknown option(s) {', '.join(unknown)} for {mtype.name}; "
+                              f"allowed: {', '.join(mtype.options) or 'none'}")
+    out: dict[str, Any] = {}
+    for key, opt in mtype.options.items():
+        value = options.get(key, opt.default)
+        if key == "limits":
+            value = _check_limits(mate, mtype, value)
+        elif key == "features":
+            value = bool(value)
+        elif value is not None:
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise MateError(mate, f"option {key} must be a finite number, got {value!r}")
+            if opt.integer and int(value) != value:
+                raise MateError(mate, f"option {key} must be a whole number, got {value!r}")
+            if (opt.low is not None and value < opt.low) or (opt.high is not None and value > opt.high):
+                raise MateError(mate, f"option {key} = {value:g} is outside [{opt.low:g}, {opt.high:g}]")
+            value = int(value) if opt.integer else float(value)
+        out[key] = value
+    if "home" in out and out.get("limits") is not None:
+        lo, hi = out["limits"]
+        if not lo <= out["home"] <= hi:
+            raise MateError(mate, f"home = {out['home']:g} is outside its limits [{lo:g}, {hi:g}]")
+    return out
+
+
+def _check_limits(mate: str, mtype: MateType, value: Any) -> tuple[float, float] | None:
+    if value is None:
+        if mtype.name == "prismatic":
+            raise MateError(mate, "a prismatic mate needs limits=(lo, hi) in mm")
+        return None
+    try:
+        lo, hi = (float(v) for v in value)
+    except (TypeError, ValueError):
+        raise MateError(mate, f"limits must be (lo, hi), got {value!r}") from None
+    opt = mtype.options["limits"]
+    if not (lo < hi):
+        raise MateError(mate, f"limits ({lo:g}, {hi:g}) must have lo < hi")
+    if lo < opt.low or hi > opt.high:
+        raise MateError(mate, f"limits ({lo:g}, {hi:g}) are outside [{opt.low:g}, {opt.high:g}]")
+    return (lo, hi)

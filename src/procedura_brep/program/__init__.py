@@ -1,0 +1,43 @@
+"""The program layer: format, parse, param edits, sandboxed compile, and the program API.
+
+``from procedura_brep.program import *`` (the first line of every program) gives build123d's
+modelling vocabulary, ``math``, and :func:`part`, :func:`frames`, :func:`mate`. Names are
+resolved lazily (PEP 562) so that importing this package for parsing or editing does not pay
+build123d's multi-second import.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+#: build123d names a program must not see: anything that reads or writes files or meshes.
+_DENY_SUBSTRINGS = ("import", "export", "Export", "Mesher", "Import")
+_API = ("part", "frames", "mate")
+_LAZY = {"compile_source": ".sandbox", "Worker": ".sandbox", "CompileOptions": ".sandbox",
+         "parse_sections": ".sections", "Sections": ".sections", "set_params": ".edit"}
+
+
+def build123d_names() -> list[str]:
+    """The build123d names re-exported to programs (build123d's ``__all__`` minus file I/O)."""
+    import build123d
+    return [n for n in build123d.__all__ if not any(s in n for s in _DENY_SUBSTRINGS)]
+
+
+def __getattr__(name: str) -> Any:
+    if name == "__all__":
+        return [*_API, "math", *build123d_names()]
+    if name in _API:
+        from . import api
+        return getattr(api, name)
+    if name in _LAZY:
+        import importlib
+        return getattr(importlib.import_module(_LAZY[name], __name__), name)
+    if name == "math":
+        import math
+        return math
+    if not name.startswith("_"):
+        names = build123d_names()
+        if name in names:
+            import build123d
+            return getattr(build123d, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

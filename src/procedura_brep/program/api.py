@@ -1,0 +1,155 @@
+"""The program API: what a program (and the model writing it) imports.
+
+A program starts with ``from procedura_brep.program import *``, which brings in build123d's
+modelling vocabulary (solids, sketches, operations, ``Location``, ``Axis``, ``Align`` ...),
+``math``, and the three declarations below. File import/export functions are *not* exported:
+programs never touch files.
+
+Example (a complete two-part program)::
+
+    from procedura_brep.program import *
+
+    # === params ===
+    base_w = 120.0  # mm, base side
+    base_t = 12.0   # mm, base thickness
+    post_d = 20.0   # mm, post diameter: nominal of the post's peg_socket
+    post_h = 80.0   # mm
+
+    # === helpers ===
+
+    # === parts ===
+    @part(detail="silhouette", material="cast_iron", description="square base")
+    def base():
+        b = Box(base_w, base_w, base_t, align=(Align.CENTER, Align.CENTER, Align.MIN))
+        return fillet(b.edges().filter_by(Axis.Z), radius=6)
+
+    @part(detail="major", material="brushed_steel", description="post on the base centre")
+    def post():
+        return Cylinder(post_d / 2, post_h, align=(Align.CENTER, Align.CENTER, Align.MIN))
+
+    # === frames ===
+    frames("base", top=Location((0, 0, base_t)))
+    frames("post", foot=Location((0, 0, 0)))
+
+    # === assembly ===
+    mate("post.foot", "base.top", "peg_socket", nominal="post_d", fit="location")
+"""
+
+from __future__ import annotations
+
+import inspect
+from typing import Any, Callable
+
+from ..errors import MateError, ProgramFormatError
+from .registry import DETAILS, MateDecl, PartDecl, active
+
+
+def part(*, detail: str = "major", material: str = "steel", description: str = ""
+         ) -> Callable[[Callable[[], Any]], Callable[[], Any]]:
+    """Register a function as a part. The part's name is the function's name (snake_case).
+
+    The function takes no arguments, reads params as globals, and returns one build123d solid
+    (``Part``, ``Solid`` or a ``Compound`` of solids) in **part-local** coordinates. It never
+    places itself: placement is solved from its mates.
+
+    Args:
+        detail: ``"silhouette"`` (the big shapes), ``"major"`` (major features) or ``"sub"``
+            (small sub-features such as bolts and knobs).
+        material: a key of the material library (``steel``, ``aluminium``, ``rubber`` ...).
+        description: one line: what the part is, its size and where it sits.
+
+    Example::
+
+        @part(detail="major", material="rubber", description="120 mm tyre, 40 mm wide")
+        def wheel_fl():
+            tyre = Cylinder(wheel_d / 2, wheel_w) - Cylinder(hub_d / 2, wheel_w)
+            return fillet(tyre.edges(), radius=4)
+    """
+    if detail not in DETAILS:
+        raise ProgramFormatError(f"detail {detail!r} is not one of {', '.join(DETAILS)}")
+
+    def register(fn: Callable[[], Any]) -> Callable[[], Any]:
+        code = fn.__code__
+        end = max((ln for _, _, ln in code.co_lines() if ln), default=code.co_firstlineno)
+        active().add_part(PartDecl(fn.__name__, fn, detail, material, description,
+                                   code.co_firstlineno, end))
+        return fn
+
+    return register
+
+
+def frames(part_name: str, **named: Any) -> None:
+    """Publish named mate frames of a part, as ``Location``s in the part's local coordinates.
+
+    A frame's origin lies on the mating surface and its +Z axis is the mate axis, pointing from
+    the parent into the child. So a parent's frame points *out of* its surface and the child's
+    frame points *into* the child's body; placement makes the two frames coincide.
+
+    Example::
+
+        frames("base", top=Location((0, 0, base_t)))             # +Z up, out of the top face
+        frames("post", foot=Location((0, 0, 0)))                 # +Z up, into the post
+        frames("arm", pivot=Location((7, 0, 0), (90, 0, 0)))     # hinge axis along -Y
+    """
+    line = _caller_line()
+    for key, loc in named.items():
+        if not hasattr(loc, "to_tuple") and not hasattr(loc, "wrapped"):
+            raise ProgramFormatError(f"frame {part_name}.{key} must be a Location, got {type(loc).__name__}",
+                                     line=line)
+    active().add_frames(part_name, named, line)
+
+
+def mate(child: str, parent: str, type: str, *, nominal: str, fit: str | None = None,
+         name: str | None = None, **options: Any) -> None:
+    """Declare a mate joining ``"child_part.frame"`` to ``"parent_part.frame"``.
+
+    The compiler adds the male feature to the child, cuts the female from the parent (both from
+    the one nominal and the fit), and solves the child's placement. Declare mates in plan order:
+    the parent must already be placed (the first part is the root).
+
+    Args:
+        child: ``"part.frame"`` of the new part.
+        parent: ``"part.frame"`` of a part declared earlier.
+        type: static ``bolt_pattern``, ``peg_socket``, ``seat_face``, ``flange``, ``tab_slot``,
+            ``press_fit``, ``lip_rabbet``, ``snap_tab``, ``key``; kinematic ``revolute``,
+            ``prismatic``, ``spherical``.
+        nominal: the NAME of the param holding the shared size d (a string such as
+            ``"pin_d"``), never a number.
+        fit: ``clearance`` | ``location`` | ``press`` | ``snap`` (default depends on the type).
+        name: the mate's stable id (default ``<child part>_<child frame>``).
+        **options: type-specific: ``count``, ``pcd``, ``depth``, ``limits=(lo, hi)``, ``home``,
+            ``cone``, ``effort``, ``velocity``, ``features=False`` ...
+
+    Example::
+
+        mate("post.foot", "base.top", "peg_socket", nominal="post_d", fit="location")
+        mate("arm.pivot", "post.head", "revolute", nominal="pin_d", limits=(-60, 60))
+        mate("jaw.slide", "body.rail", "prismatic", nominal="rail_w", limits=(0, 80))
+    """
+    line = _caller_line()
+    cpart, cframe = _split(child, "child", line)
+    ppart, pframe = _split(parent, "parent", line)
+    mname = name or f"{cpart}_{cframe}"
+    if not isinstance(nominal, str):
+        raise MateError(mname, f"nominal must be a param name (a string such as 'pin_d'), "
+                               f"not the literal {nominal!r}; add a param and pass its name")
+    active().add_mate(MateDecl(mname, cpart, cframe, ppart, pframe, type, nominal, fit,
+                               dict(options), line))
+
+
+def _split(ref: str, role: str, line: int | None) -> tuple[str, str]:
+    if not isinstance(ref, str) or ref.count(".") != 1:
+        raise ProgramFormatError(f"{role} must be 'part.frame', got {ref!r}", line=line)
+    a, b = ref.split(".")
+    return a, b
+
+
+def _caller_line() -> int | None:
+    frame = inspect.currentframe()
+    try:
+        f = frame.f_back.f_back if frame and frame.f_back else None
+        while f is not None and f.f_code.co_filename != "<program>":
+            f = f.f_back
+        return f.f_lineno if f is not None else None
+    finally:
+        del frame

@@ -1,0 +1,161 @@
+"""The compiled assembly as plain data: what the sandbox returns and every later layer reads.
+
+No kernel objects live here, only BRep bytes and 4x4 matrices (mm), so a model is JSON-safe
+(see :func:`to_json` / :func:`from_json`) and independent of the process that compiled it.
+Shapes are materialised lazily through :mod:`procedura_brep.kernel`.
+"""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+
+@dataclass
+class Finding:
+    """One problem found while compiling or gating (never an exception).
+
+    Attributes:
+        code: stable identifier, e.g. ``"part-exception"``, ``"mate-residual"``.
+        message: one line for people and for the model.
+        part: the part concerned, if any.
+        mate: the mate concerned, if any.
+        line: 1-based program line, if known.
+        value: the measured value, if any.
+        limit: the limit it was compared with, if any.
+        severity: ``"error"`` fails the build; ``"warning"`` is reported only.
+    """
+
+    code: str
+    message: str
+    part: str | None = None
+    mate: str | None = None
+    line: int | None = None
+    value: float | None = None
+    limit: float | None = None
+    severity: str = "error"
+
+    def as_dict(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if v is not None}
+
+
+@dataclass
+class CompiledPart:
+    """One part: its local solid (features applied) and where it sits in the world."""
+
+    name: str
+    brep: bytes
+    placement: np.ndarray
+    frames: dict[str, np.ndarray] = field(default_factory=dict)
+    material: str = "steel"
+    detail: str = "major"
+    description: str = ""
+    lines: tuple[int, int] = (0, 0)
+    reads: tuple[str, ...] = ()
+    _shape: Any = field(default=None, repr=False, compare=False)
+
+    @property
+    def digest(self) -> str:
+        """sha256 of the local BRep plus placement: changes exactly when the geometry does."""
+        h = hashlib.sha256(self.brep)
+        h.update(np.round(self.placement, 9).tobytes())
+        return h.hexdigest()
+
+    def local_shape(self):
+        """The part's TopoDS_Shape in part-local coordinates (cached)."""
+        if self._shape is None:
+            from .. import kernel
+            self._shape = kernel.read_brep(self.brep)
+        return self._shape
+
+    def shape(self):
+        """The part's TopoDS_Shape placed in the world."""
+        from .. import kernel
+        return kernel.located(self.local_shape(), self.placement)
+
+    def world_frame(self, frame: str) -> np.ndarray:
+        return self.placement @ self.frames[frame]
+
+
+@dataclass
+class CompiledMate:
+    """One mate as compiled: type, partners, resolved nominal and fit, world frame, residual."""
+
+    name: str
+    type: str
+    kind: str
+    child: str
+    child_frame: str
+    parent: str
+    parent_frame: str
+    nominal_name: str
+    nominal: float
+    fit: dict[str, Any]
+    options: dict[str, Any]
+    dof: dict[str, Any]
+    world_frame: np.ndarray
+    primary: bool = True
+    residual_mm: float = 0.0
+    residual_rad: float = 0.0
+    line: int | None = None
+
+    @property
+    def limits(self) -> Any:
+        if self.type == "spherical":
+            return {"cone_deg": self.options.get("cone")}
+        return self.options.get("limits")
+
+
+@dataclass
+class CompiledModel:
+    """The whole assembly in plan order (the first part is the root)."""
+
+    name: str
+    params: dict[str, Any]
+    parts: list[CompiledPart]
+    mates: list[CompiledMate]
+    findings: list[Finding] = field(default_factory=list)
+    timings: dict[str, float] = field(default_factory=dict)
+
+    def part(self, name: str) -> CompiledPart:
+        for p in self.parts:
+            if p.name == name:
+                return p
+        raise KeyError(f"no part named {name!r}; parts: {', '.join(p.name for p in self.parts)}")
+
+    @property
+    def ok(self) -> bool:
+        return not any(f.severity == "error" for f in self.findings)
+
+
+def _m(a: np.ndarray) -> list[list[float]]:
+    return np.asarray(a, dtype=float).tolist()
+
+
+def to_json(model: CompiledModel) -> dict[str, Any]:
+    """A JSON-safe dict (BRep as base64) that :func:`from_json` reads back exactly."""
+    return {
+        "name": model.name, "params": model.params, "timings": model.timings,
+        "findings": [f.as_dict() for f in model.findings],
+        "parts": [{"name": p.name, "brep": base64.b64encode(p.brep).decode("ascii"),
+                   "placement": _m(p.placement), "frames": {k: _m(v) for k, v in p.frames.items()},
+                   "material": p.material, "detail": p.detail, "description": p.description,
+                   "lines": list(p.lines), "reads": list(p.reads)} for p in model.parts],
+        "mates": [{**{k: v for k, v in m.__dict__.items() if k != "world_frame"},
+                   "world_frame": _m(m.world_frame)} for m in model.mates],
+    }
+
+
+def from_json(d: dict[str, Any]) -> CompiledModel:
+    parts = [CompiledPart(name=p["name"], brep=base64.b64decode(p["brep"]),
+                          placement=np.array(p["placement"]),
+                          frames={k: np.array(v) for k, v in p["frames"].items()},
+                          material=p["material"], detail=p["detail"], description=p["description"],
+                          lines=tuple(p["lines"]), reads=tuple(p["reads"])) for p in d["parts"]]
+    mates = [CompiledMate(**{**m, "world_frame": np.array(m["world_frame"])}) for m in d["mates"]]
+    return CompiledModel(name=d["name"], params=d["params"], parts=parts, mates=mates,
+                         findings=[Finding(**f) for f in d["findings"]], timings=d["timings"])

@@ -1,0 +1,110 @@
+"""The static half of the sandbox: an AST allowlist every program must pass before it runs.
+
+Rules (DESIGN.md section 8):
+  * imports: only ``from procedura_brep.program import *``, ``import math``, ``from math import ...``;
+  * no name or attribute that starts with an underscore (so no dunder escapes such as
+    ``x.__globals__``, ``().__class__``, ``__import__``, ``__builtins__``);
+  * no call to ``open``, ``exec``, ``eval``, ``compile``, ``globals``, ``locals``, ``vars``,
+    ``getattr``, ``setattr``, ``delattr``, ``input``, ``breakpoint``, ``help``, ``exit``,
+    ``quit``, ``memoryview``, ``type``, ``super``, ``object``, ``classmethod``, ``staticmethod``,
+    ``property``: these names may not appear at all;
+  * no assignment to attributes (``obj.attr = ...``): a program may not monkeypatch the kernel;
+  * no ``global``/``nonlocal``, ``async`` code, or ``del`` of attributes.
+The dynamic half (resource limits, scratch dir, stripped environment, restricted builtins) is
+in :mod:`procedura_brep.program.sandbox` and :mod:`procedura_brep.program.runtime`.
+"""
+
+from __future__ import annotations
+
+import ast
+
+from ..errors import ProgramFormatError
+
+FORBIDDEN_NAMES = frozenset({
+    "open", "exec", "eval", "compile", "globals", "locals", "vars", "getattr", "setattr",
+    "delattr", "input", "breakpoint", "help", "exit", "quit", "memoryview", "type", "super",
+    "object", "classmethod", "staticmethod", "property", "dir", "id", "hasattr",
+})
+ALLOWED_IMPORTS = {"math"}
+PROGRAM_MODULE = "procedura_brep.program"
+
+
+class PolicyViolation(ProgramFormatError):
+    """The program uses a construct the sandbox forbids."""
+
+
+def check(source: str, filename: str = "<program>") -> None:
+    """Raise :class:`PolicyViolation` (with the line) at the first forbidden construct."""
+    try:
+        tree = ast.parse(source, filename=filename)
+    except SyntaxError as exc:
+        raise ProgramFormatError(f"syntax error: {exc.msg}", line=exc.lineno) from None
+    for node in ast.walk(tree):
+        _check_node(node)
+
+
+def _deny(node: ast.AST, why: str) -> None:
+    raise PolicyViolation(f"not allowed in a program: {why}", line=getattr(node, "lineno", None))
+
+
+def _check_node(node: ast.AST) -> None:
+    if isinstance(node, ast.Import):
+        for alias in node.names:
+            if alias.name not in ALLOWED_IMPORTS:
+                _deny(node, f"import {alias.name} (programs may import only math and "
+                            f"{PROGRAM_MODULE})")
+    elif isinstance(node, ast.ImportFrom):
+        if node.module not in ALLOWED_IMPORTS | {PROGRAM_MODULE} or node.level:
+            _deny(node, f"from {node.module} import ... (programs may import only math and "
+                        f"{PROGRAM_MODULE})")
+    elif isinstance(node, ast.Name):
+        if node.id.startswith("_"):
+            _deny(node, f"the name {node.id!r} (names starting with '_' are reserved)")
+        if node.id in FORBIDDEN_NAMES:
+            _deny(node, f"the builtin {node.id!r}")
+    elif isinstance(node, ast.Attribute):
+        if node.attr.startswith("_"):
+            _deny(node, f"the attribute {node.attr!r} (attributes starting with '_' are reserved)")
+        if isinstance(node.ctx, (ast.Store, ast.Del)):
+            _deny(node, f"assigning to the attribute {node.attr!r} (no monkeypatching)")
+    elif isinstance(node, (ast.FunctionDef, ast.ClassDef, ast.AsyncFunctionDef)):
+        if node.name.startswith("_"):
+            _deny(node, f"the definition {node.name!r} (names starting with '_' are reserved)")
+        if isinstance(node, ast.AsyncFunctionDef):
+            _deny(node, "async functions")
+    elif isinstance(node, ast.arg):
+        if node.arg.startswith("_"):
+            _deny(node, f"the argument {node.arg!r}")
+    elif isinstance(node, (ast.Global, ast.Nonlocal)):
+        _deny(node, "global/nonlocal statements")
+    elif isinstance(node, (ast.AsyncFor, ast.AsyncWith, ast.Await)):
+        _deny(node, "async code")
+    elif isinstance(node, ast.keyword) and node.arg and node.arg.startswith("_"):
+        _deny(node, f"the keyword {node.arg!r}")
+    elif isinstance(node, ast.Constant) and isinstance(node.value, str) and "__" in node.value:
+        _deny(node, "string literals containing '__'")
+
+
+_PARAM_NODES = (ast.Expression, ast.Constant, ast.Name, ast.Load, ast.BinOp, ast.UnaryOp,
+                ast.operator, ast.unaryop, ast.Call, ast.Attribute, ast.Tuple)
+
+
+def check_param_expr(expr: str, *, line: int | None = None) -> None:
+    """A param expression may use numbers, other params, arithmetic and ``math.<fn>`` only."""
+    try:
+        tree = ast.parse(expr, mode="eval")
+    except SyntaxError:
+        raise ProgramFormatError(f"param expression {expr!r} is not valid Python", line=line) from None
+    for node in ast.walk(tree):
+        if not isinstance(node, _PARAM_NODES):
+            raise ProgramFormatError(f"param expression {expr!r} may use only numbers, params, "
+                                     f"arithmetic and math functions", line=line)
+        if isinstance(node, ast.Name) and node.id.startswith("_"):
+            raise ProgramFormatError(f"param expression {expr!r} uses a reserved name", line=line)
+        if isinstance(node, ast.Attribute) and not (
+                isinstance(node.value, ast.Name) and node.value.id == "math"
+                and not node.attr.startswith("_")):
+            raise ProgramFormatError(f"param expression {expr!r}: only math.<name> attributes",
+                                     line=line)
+        if isinstance(node, ast.Constant) and isinstance(node.value, str):
+            raise ProgramFormatError(f"param expression {expr!r}: params are numbers", line=line)

@@ -1,0 +1,93 @@
+"""Declarations recorded while a program module executes: parts, frames, mates.
+
+Kept free of build123d so the parent process can import it cheaply.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from typing import Any, Callable, Literal
+
+from ..errors import MateError, ProgramFormatError
+
+Detail = Literal["silhouette", "major", "sub"]
+DETAILS: tuple[str, ...] = ("silhouette", "major", "sub")
+NAME_RE = re.compile(r"^[a-z][a-z0-9_]*$")
+
+
+@dataclass
+class PartDecl:
+    name: str
+    fn: Callable[[], Any]
+    detail: str
+    material: str
+    description: str
+    line: int
+    end_line: int
+
+
+@dataclass
+class MateDecl:
+    name: str
+    child: str
+    child_frame: str
+    parent: str
+    parent_frame: str
+    type: str
+    nominal: Any
+    fit: str | None
+    options: dict[str, Any]
+    line: int | None
+
+
+@dataclass
+class Registry:
+    """Everything one program declares, in declaration order."""
+
+    parts: dict[str, PartDecl] = field(default_factory=dict)
+    frames: dict[str, dict[str, Any]] = field(default_factory=dict)
+    frame_lines: dict[str, int] = field(default_factory=dict)
+    mates: list[MateDecl] = field(default_factory=list)
+
+    def add_part(self, decl: PartDecl) -> None:
+        if not NAME_RE.match(decl.name):
+            raise ProgramFormatError(f"part name {decl.name!r} must be snake_case [a-z][a-z0-9_]*",
+                                     line=decl.line)
+        if decl.name in self.parts:
+            raise ProgramFormatError(f"part {decl.name!r} is defined twice", line=decl.line)
+        self.parts[decl.name] = decl
+
+    def add_frames(self, part: str, frames: dict[str, Any], line: int | None) -> None:
+        for fname in frames:
+            if not NAME_RE.match(fname):
+                raise ProgramFormatError(f"frame name {part}.{fname} must be snake_case", line=line)
+        self.frames.setdefault(part, {}).update(frames)
+        if line is not None:
+            self.frame_lines.setdefault(part, line)
+
+    def add_mate(self, decl: MateDecl) -> None:
+        if any(m.name == decl.name for m in self.mates):
+            raise MateError(decl.name, "a mate with this name is declared twice; pass name=...")
+        self.mates.append(decl)
+
+
+_ACTIVE: list[Registry] = []
+
+
+def active() -> Registry:
+    """The registry of the program being executed (the compiler pushes one per compile)."""
+    if not _ACTIVE:
+        _ACTIVE.append(Registry())
+    return _ACTIVE[-1]
+
+
+def push() -> Registry:
+    reg = Registry()
+    _ACTIVE.append(reg)
+    return reg
+
+
+def pop() -> None:
+    if _ACTIVE:
+        _ACTIVE.pop()

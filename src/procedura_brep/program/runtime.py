@@ -1,0 +1,284 @@
+"""Execute a program and compile it to a :class:`CompiledModel` (runs inside the sandbox child).
+
+Steps: policy check -> exec with restricted builtins -> evaluate each part (a failure is a
+finding naming the part, the program line and the exception) -> build each mate's features and
+resolve its fit -> solve placement in plan order -> serialise.
+"""
+
+from __future__ import annotations
+
+import builtins
+import math
+import sys
+import time
+import traceback
+from typing import Any
+
+import numpy as np
+
+from ..errors import MateError, ProceduraError, ProgramFormatError
+from ..mates import check_options, get_type
+from ..mates import placement as pl
+from . import policy, registry
+from .model import CompiledMate, CompiledModel, CompiledPart, Finding
+from .sections import parse_sections
+
+SAFE_BUILTINS = (
+    "abs", "all", "any", "bool", "dict", "divmod", "enumerate", "filter", "float", "frozenset",
+    "int", "isinstance", "issubclass", "iter", "len", "list", "map", "max", "min", "next",
+    "pow", "range", "repr", "reversed", "round", "set", "slice", "sorted", "str", "sum", "tuple",
+    "zip", "print", "True", "False", "None", "Exception", "ValueError", "TypeError",
+    "ArithmeticError", "ZeroDivisionError", "IndexError", "KeyError", "RuntimeError",
+    "StopIteration", "NotImplemented",
+)
+
+
+def _guarded_import(name: str, globals_: Any = None, locals_: Any = None, fromlist: Any = (),
+                    level: int = 0) -> Any:
+    if level == 0 and (name in policy.ALLOWED_IMPORTS or name == policy.PROGRAM_MODULE):
+        return builtins.__import__(name, globals_, locals_, fromlist, level)
+    raise ImportError(f"programs may import only math and {policy.PROGRAM_MODULE}, not {name!r}")
+
+
+def restricted_globals() -> dict[str, Any]:
+    safe = {n: getattr(builtins, n) for n in SAFE_BUILTINS if hasattr(builtins, n)}
+    safe["print"] = lambda *a, **k: None  # programs have no stdout
+    safe["__import__"] = _guarded_import
+    safe["__build_class__"] = builtins.__build_class__
+    return {"__builtins__": safe, "__name__": "program"}
+
+
+def _program_line(tb: Any) -> int | None:
+    line = None
+    for frame, lineno in traceback.walk_tb(tb):
+        if frame.f_code.co_filename == "<program>":
+            line = lineno
+    return line
+
+
+def _exc_text(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return f"{type(exc).__name__}: {text[0] if text else ''}".rstrip(": ")
+
+
+def loc_matrix(loc: Any) -> np.ndarray:
+    """4x4 matrix of a build123d Location (or anything with ``.wrapped`` TopLoc_Location)."""
+    t = loc.wrapped.Transformation()
+    m = np.eye(4)
+    for r in range(3):
+        for c in range(4):
+            m[r, c] = t.Value(r + 1, c + 1)
+    return m
+
+
+def _as_solid(value: Any) -> Any:
+    from build123d import BuildPart, Compound, Part, Solid
+    if isinstance(value, BuildPart):
+        value = value.part
+    if isinstance(value, (list, tuple)) and value:
+        value = Compound(children=list(value)) if len(value) > 1 else value[0]
+    if not isinstance(value, (Part, Solid, Compound)):
+        raise ProgramFormatError(f"a part must return a build123d solid (Part, Solid or Compound), "
+                                 f"got {type(value).__name__}")
+    return value
+
+
+class _Build:
+    """Mutable state of one compile."""
+
+    def __init__(self, source: str, name: str) -> None:
+        self.source, self.name = source, name
+        self.findings: list[Finding] = []
+        self.timings: dict[str, float] = {}
+        self.solids: dict[str, Any] = {}
+        self.world: dict[str, np.ndarray] = {}
+
+    def fail(self, code: str, message: str, **kw: Any) -> None:
+        self.findings.append(Finding(code, message, **kw))
+
+
+def compile_program(source: str, *, name: str = "model") -> CompiledModel:
+    """Compile ``source`` in this process. Call only inside the sandbox child."""
+    b = _Build(source, name)
+    t0 = time.perf_counter()
+    try:
+        sections = parse_sections(source)
+        policy.check(source)
+    except ProgramFormatError as exc:
+        b.fail("format", str(exc), line=exc.line)
+        return CompiledModel(name, {}, [], [], b.findings, b.timings)
+    reg = registry.push()
+    glb = restricted_globals()
+    try:
+        exec(compile(source, "<program>", "exec"), glb)  # noqa: S102 - policy-checked, sandboxed
+    except ProceduraError as exc:
+        b.fail("declaration", str(exc), line=getattr(exc, "line", None) or _program_line(sys.exc_info()[2]),
+               mate=getattr(exc, "mate", None))
+    except BaseException as exc:  # noqa: BLE001 - any failure of untrusted code is a finding
+        b.fail("module-exception", _exc_text(exc), line=_program_line(exc.__traceback__))
+    finally:
+        registry.pop()
+    params = {k: glb.get(k) for k in sections.params}
+    b.timings["exec_s"] = time.perf_counter() - t0
+    if not b.findings and not reg.parts:
+        b.fail("no-parts", "the program declares no @part functions")
+    if any(f.severity == "error" for f in b.findings):
+        return CompiledModel(name, params, [], [], b.findings, b.timings)
+    _eval_parts(b, reg)
+    mates = _build_mates(b, reg, params)
+    _place(b, reg, mates)
+    return _serialise(b, reg, params, mates, time.perf_counter() - t0)
+
+
+def _eval_parts(b: _Build, reg: registry.Registry) -> None:
+    from .. import kernel
+    for decl in reg.parts.values():
+        t = time.perf_counter()
+        try:
+            solid = _as_solid(decl.fn())
+            vol = kernel.volume(solid.wrapped)
+            if not vol > 0:
+                raise ProgramFormatError(f"the solid is empty (volume {vol:g} mm^3)")
+            if not kernel.is_valid(solid.wrapped):
+                raise ProgramFormatError("the solid is not a valid B-rep (BRepCheck failed)")
+            b.solids[decl.name] = solid
+        except BaseException as exc:  # noqa: BLE001
+            if isinstance(exc, (KeyboardInterrupt, SystemExit)):
+                raise
+            line = _program_line(exc.__traceback__) or decl.line
+            b.fail("part-exception", f"part {decl.name}: {_exc_text(exc)}", part=decl.name, line=line)
+        b.timings[f"part:{decl.name}"] = time.perf_counter() - t
+
+
+def _frame(b: _Build, reg: registry.Registry, mname: str, part: str, frame: str) -> np.ndarray:
+    if part not in reg.parts:
+        raise MateError(mname, f"unknown part {part!r}; parts: {', '.join(reg.parts)}")
+    frames = reg.frames.get(part, {})
+    if frame not in frames:
+        raise MateError(mname, f"part {part!r} publishes no frame {frame!r}; its frames: "
+                               f"{', '.join(frames) or 'none (add frames(...))'}")
+    return loc_matrix(frames[frame])
+
+
+def _build_mates(b: _Build, reg: registry.Registry, params: dict[str, Any]) -> list[dict[str, Any]]:
+    from build123d import Location
+
+    from ..mates import features
+    out: list[dict[str, Any]] = []
+    for decl in reg.mates:
+        try:
+            mtype = get_type(decl.name, decl.type)
+            fit_name = decl.fit or mtype.default_fit
+            opts = check_options(decl.name, mtype, fit_name, decl.options)
+            if decl.nominal not in params:
+                raise MateError(decl.name, f"nominal {decl.nominal!r} is not a param; params: "
+                                           f"{', '.join(params) or 'none'}")
+            d = params[decl.nominal]
+            if isinstance(d, bool) or not isinstance(d, (int, float)) or not d > 0 or not math.isfinite(d):
+                raise MateError(decl.name, f"nominal {decl.nominal} = {d!r} must be a positive number (mm)")
+            try:
+                fit = mtype.resolve_fit(float(d), fit_name)  # type: ignore[arg-type]
+            except ValueError as exc:
+                raise MateError(decl.name, str(exc)) from None
+            fc = _frame(b, reg, decl.name, decl.child, decl.child_frame)
+            fp = _frame(b, reg, decl.name, decl.parent, decl.parent_frame)
+        except (MateError, ProceduraError) as exc:
+            b.fail("mate", str(exc), mate=decl.name, line=decl.line)
+            continue
+        if decl.child == decl.parent:
+            b.fail("mate", f"mate {decl.name}: a part cannot mate to itself", mate=decl.name, line=decl.line)
+            continue
+        out.append({"decl": decl, "type": mtype, "fit": fit, "options": opts, "d": float(d),
+                    "fc": fc, "fp": fp})
+        if decl.child not in b.solids or decl.parent not in b.solids:
+            continue
+        t = time.perf_counter()
+        try:
+            male, female = features.build(mtype.name, float(d), fit, opts)
+            if male is not None:
+                b.solids[decl.child] = b.solids[decl.child] + (reg.frames[decl.child][decl.child_frame] * male)
+            if female is not None:
+                b.solids[decl.parent] = b.solids[decl.parent] - (reg.frames[decl.parent][decl.parent_frame] * female)
+        except Exception as exc:  # noqa: BLE001 - OCCT failures become findings
+            b.fail("mate-feature", f"mate {decl.name}: building its {mtype.name} features failed: "
+                                   f"{_exc_text(exc)}", mate=decl.name, line=decl.line)
+        b.timings[f"mate:{decl.name}"] = time.perf_counter() - t
+    _ = Location
+    return out
+
+
+def _place(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]]) -> None:
+    from ..config import TOL
+    names = list(reg.parts)
+    if not names:
+        return
+    b.world[names[0]] = np.eye(4)
+    for m in mates:
+        decl, mtype, opts = m["decl"], m["type"], m["options"]
+        home = opts.get("home") if mtype.kind == "kinematic" else None
+        D = pl.delta(mtype.name, home)
+        if decl.parent not in b.world:
+            b.fail("plan-order", f"mate {decl.name}: parent {decl.parent!r} is not placed yet; declare "
+                                 f"mates in plan order (root: {names[0]!r})", mate=decl.name, line=decl.line)
+            continue
+        solved = pl.solve(b.world[decl.parent], m["fp"], m["fc"], D)
+        m["world_frame"] = b.world[decl.parent] @ m["fp"] @ D
+        if decl.child == names[0]:
+            b.fail("plan-order", f"mate {decl.name}: the root part {names[0]!r} cannot be a child",
+                   mate=decl.name, line=decl.line)
+        elif decl.child not in b.world:
+            b.world[decl.child] = solved
+            m["primary"] = True
+        else:
+            m["primary"] = False
+            dist, ang = pl.residual(b.world[decl.child], solved)
+            m["residual"] = (dist, ang)
+            if mtype.kind == "kinematic":
+                b.fail("loop", f"mate {decl.name}: {decl.child!r} is already placed; a kinematic mate "
+                               f"may not close a loop", mate=decl.name, line=decl.line)
+            elif dist > TOL.residual_mm or ang > TOL.residual_rad:
+                b.fail("mate-residual", f"mate {decl.name}: {decl.child!r} is placed by an earlier mate; "
+                                        f"this one is off by {dist:.4g} mm and {math.degrees(ang):.4g} deg",
+                       mate=decl.name, line=decl.line, value=dist, limit=TOL.residual_mm, severity="warning")
+    for n in names[1:]:
+        if n not in b.world and n in b.solids:
+            b.fail("unmated", f"part {n!r} is joined to nothing: give it a mate to an earlier part",
+                   part=n, line=reg.parts[n].line)
+
+
+def _reads(decl: registry.PartDecl, params: dict[str, Any], reg: registry.Registry) -> tuple[str, ...]:
+    names = set(decl.fn.__code__.co_names)
+    for const in decl.fn.__code__.co_consts:
+        if hasattr(const, "co_names"):
+            names |= set(const.co_names)
+    return tuple(sorted(n for n in names if n in params))
+
+
+def _serialise(b: _Build, reg: registry.Registry, params: dict[str, Any],
+               mates: list[dict[str, Any]], total: float) -> CompiledModel:
+    from .. import kernel
+    parts: list[CompiledPart] = []
+    for name, decl in reg.parts.items():
+        if name not in b.solids or name not in b.world:
+            continue
+        frames = {k: loc_matrix(v) for k, v in reg.frames.get(name, {}).items()}
+        parts.append(CompiledPart(name=name, brep=kernel.write_brep(b.solids[name].wrapped),
+                                  placement=b.world[name], frames=frames, material=decl.material,
+                                  detail=decl.detail, description=decl.description,
+                                  lines=(decl.line, decl.end_line), reads=_reads(decl, params, reg)))
+    cms: list[CompiledMate] = []
+    for m in mates:
+        if "world_frame" not in m:
+            continue
+        decl, mtype = m["decl"], m["type"]
+        res = m.get("residual", (0.0, 0.0))
+        cms.append(CompiledMate(
+            name=decl.name, type=mtype.name, kind=mtype.kind, child=decl.child,
+            child_frame=decl.child_frame, parent=decl.parent, parent_frame=decl.parent_frame,
+            nominal_name=decl.nominal, nominal=m["d"], fit=m["fit"].as_dict(),
+            options={k: (list(v) if isinstance(v, tuple) else v) for k, v in m["options"].items()},
+            dof=mtype.dof.as_dict(), world_frame=m["world_frame"], primary=m.get("primary", True),
+            residual_mm=res[0], residual_rad=res[1], line=decl.line))
+    b.timings["compile_s"] = total
+    clean = {k: v for k, v in params.items() if isinstance(v, (int, float, bool, str))}
+    return CompiledModel(b.name, clean, parts, cms, b.findings, b.timings)

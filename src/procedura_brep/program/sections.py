@@ -1,0 +1,143 @@
+"""The five-section program format: parse, locate, and report format errors by line.
+
+A program is a header (docstring and ``from procedura_brep.program import *``) followed by five
+sections in this order, each opened by a marker comment on its own line::
+
+    # === params ===
+    # === helpers ===
+    # === parts ===
+    # === frames ===
+    # === assembly ===
+
+The params section holds one assignment per line, ``name = <expression>  # unit, meaning``,
+where the expression uses numbers, earlier params and ``math``.
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+from dataclasses import dataclass, field
+
+from ..errors import ProgramFormatError
+
+SECTION_NAMES: tuple[str, ...] = ("params", "helpers", "parts", "frames", "assembly")
+MARKER_RE = re.compile(r"^#\s*===\s*([A-Za-z_]+)\s*===\s*$")
+
+
+def marker(name: str) -> str:
+    """The canonical marker line of a section."""
+    return f"# === {name} ==="
+
+
+@dataclass
+class Param:
+    """One param line: name, expression text, 1-based line number, trailing comment."""
+
+    name: str
+    expr: str
+    line: int
+    comment: str
+
+
+@dataclass
+class Sections:
+    """A parsed program: the marker line of each section and its params."""
+
+    source: str
+    starts: dict[str, int]  # section -> 1-based line of its marker
+    params: dict[str, Param] = field(default_factory=dict)
+
+    def span(self, name: str) -> tuple[int, int]:
+        """(first, last) 1-based body lines of a section (may be empty: first > last)."""
+        i = SECTION_NAMES.index(name)
+        first = self.starts[name] + 1
+        last = (self.starts[SECTION_NAMES[i + 1]] - 1 if i + 1 < len(SECTION_NAMES)
+                else len(self.source.splitlines()))
+        return first, last
+
+    def section_of(self, line: int) -> str | None:
+        for name in reversed(SECTION_NAMES):
+            if line > self.starts[name]:
+                return name
+        return None
+
+
+def parse_sections(source: str) -> Sections:
+    """Check the section markers and parse the params.
+
+    Raises:
+        ProgramFormatError: a section is missing, duplicated or out of order (with the line of
+            the offending marker), the text is not Python, or a params line is not a simple
+            ``name = expression`` assignment.
+    """
+    starts: dict[str, int] = {}
+    order: list[str] = []
+    for no, text in enumerate(source.splitlines(), start=1):
+        m = MARKER_RE.match(text.strip())
+        if not m:
+            continue
+        name = m.group(1).lower()
+        if name not in SECTION_NAMES:
+            raise ProgramFormatError(f"unknown section marker {name!r}; sections are "
+                                     f"{', '.join(SECTION_NAMES)}", line=no)
+        if name in starts:
+            raise ProgramFormatError(f"section {name!r} appears twice (first at line "
+                                     f"{starts[name]})", line=no)
+        expected = SECTION_NAMES[len(order)]
+        if name != expected:
+            raise ProgramFormatError(f"section {name!r} is out of order: expected {expected!r} "
+                                     f"here (order: {' -> '.join(SECTION_NAMES)})", line=no)
+        starts[name] = no
+        order.append(name)
+    missing = [n for n in SECTION_NAMES if n not in starts]
+    if missing:
+        after = order[-1] if order else None
+        where = f" after section {after!r} (line {starts[after]})" if after else ""
+        raise ProgramFormatError(f"missing section marker(s) {', '.join(marker(n) for n in missing)}"
+                                 f"{where}", line=starts[after] if after else 1)
+    try:
+        tree = ast.parse(source)
+    except SyntaxError as exc:
+        raise ProgramFormatError(f"syntax error: {exc.msg}", line=exc.lineno) from None
+    sec = Sections(source, starts)
+    lines = source.splitlines()
+    first, last = sec.span("params")
+    for node in tree.body:
+        if not (first <= node.lineno <= last):
+            continue
+        if not (isinstance(node, ast.Assign) and len(node.targets) == 1
+                and isinstance(node.targets[0], ast.Name)):
+            raise ProgramFormatError("the params section holds only `name = value  # unit` lines",
+                                     line=node.lineno)
+        if node.end_lineno != node.lineno:
+            raise ProgramFormatError("a param must fit on one line", line=node.lineno)
+        name = node.targets[0].id
+        if name in sec.params:
+            raise ProgramFormatError(f"param {name!r} is assigned twice (first at line "
+                                     f"{sec.params[name].line})", line=node.lineno)
+        text = lines[node.lineno - 1]
+        expr = ast.get_source_segment(source, node.value) or ""
+        comment = text[text.index("#"):] if "#" in text[node.value.end_col_offset:] else ""
+        sec.params[name] = Param(name, expr, node.lineno, comment)
+    return sec
+
+
+def eval_params(sec: Sections) -> dict[str, float | int | bool | str]:
+    """Evaluate the params in order (numbers, earlier params and ``math`` only).
+
+    Each expression is checked by :func:`procedura_brep.program.policy.check_param_expr` first.
+    """
+    import math
+
+    from .policy import check_param_expr
+
+    values: dict[str, object] = {}
+    for p in sec.params.values():
+        check_param_expr(p.expr, line=p.line)
+        try:
+            values[p.name] = eval(compile(ast.parse(p.expr, mode="eval"), "<param>", "eval"),  # noqa: S307
+                                  {"__builtins__": {}, "math": math}, dict(values))
+        except Exception as exc:
+            raise ProgramFormatError(f"param {p.name} = {p.expr}: {exc}", line=p.line) from None
+    return values  # type: ignore[return-value]

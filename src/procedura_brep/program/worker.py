@@ -1,0 +1,128 @@
+"""The warm compile worker (a zygote): imports the CAD kernel once, then forks one limited,
+disposable child per compile.
+
+Protocol: one JSON object per line on stdin (``{"id", "source", "name", "scratch", "limits"}``),
+one JSON object per line on stdout (``{"id", "status", "detail"}``); the child writes its
+``result.json`` into the scratch directory. The zygote itself never runs program code and never
+meshes (a fork after OCCT's parallel mesher hangs), so every child starts clean.
+
+Run as ``python -m procedura_brep.program.worker``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import signal
+import sys
+import time
+from typing import Any
+
+
+def _limit_child(limits: dict[str, Any], scratch: str) -> None:
+    os.setsid()
+    cpu = int(limits["cpu_s"])
+    resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 1))
+    resource.setrlimit(resource.RLIMIT_AS, (limits["address_space_bytes"],) * 2)
+    resource.setrlimit(resource.RLIMIT_FSIZE, (limits["file_size_bytes"],) * 2)
+    resource.setrlimit(resource.RLIMIT_NOFILE, (limits["open_files"],) * 2)
+    resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+    try:
+        resource.setrlimit(resource.RLIMIT_NPROC, (0, 0))  # not enforced for root; AST blocks fork
+    except (ValueError, OSError):
+        pass
+    os.chdir(scratch)
+    os.environ.clear()
+    os.environ.update({"HOME": scratch, "TMPDIR": scratch, "PATH": "/nonexistent"})
+    sys.setrecursionlimit(int(limits["recursion"]))
+    log = os.open(os.path.join(scratch, "child.log"), os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    null = os.open(os.devnull, os.O_RDONLY)
+    os.dup2(null, 0)
+    os.dup2(log, 1)
+    os.dup2(log, 2)
+    os.closerange(3, 4096)
+
+
+def _child(req: dict[str, Any]) -> None:
+    scratch = req["scratch"]
+    _limit_child(req["limits"], scratch)
+    from .model import Finding, to_json
+    from .runtime import compile_program
+    try:
+        model = compile_program(req["source"], name=req.get("name", "model"))
+        payload = to_json(model)
+    except MemoryError:
+        payload = {"fatal": Finding("memory", "the program ran out of memory (address-space limit "
+                                    f"{req['limits']['address_space_bytes'] // 2**20} MiB)").as_dict()}
+    except RecursionError:
+        payload = {"fatal": Finding("recursion", "the program recursed too deeply (limit "
+                                    f"{req['limits']['recursion']})").as_dict()}
+    tmp = os.path.join(scratch, "result.json.tmp")
+    with open(tmp, "w", encoding="utf-8") as fh:
+        json.dump(payload, fh)
+    os.replace(tmp, os.path.join(scratch, "result.json"))
+
+
+def _run_one(req: dict[str, Any]) -> dict[str, Any]:
+    t0 = time.monotonic()
+    pid = os.fork()
+    if pid == 0:  # child
+        code = 0
+        try:
+            _child(req)
+        except BaseException:  # noqa: BLE001
+            code = 3
+        finally:
+            os._exit(code)
+    wall = float(req["limits"]["wall_s"])
+    while True:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            break
+        if time.monotonic() - t0 > wall:
+            _kill_group(pid)
+            os.waitpid(pid, 0)
+            return {"id": req["id"], "status": "timeout", "detail": f"wall-clock limit {wall:g} s",
+                    "seconds": time.monotonic() - t0}
+        time.sleep(0.005)
+    out: dict[str, Any] = {"id": req["id"], "seconds": time.monotonic() - t0}
+    _kill_group(pid)  # anything the child left behind
+    if os.WIFSIGNALED(status):
+        sig = os.WTERMSIG(status)
+        name = signal.Signals(sig).name if sig in signal.Signals._value2member_map_ else str(sig)
+        out.update(status="signal", detail=name)
+    else:
+        out.update(status="exit", detail=str(os.WEXITSTATUS(status)))
+    return out
+
+
+def _kill_group(pid: int) -> None:
+    try:
+        os.killpg(pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        pass
+
+
+def main() -> None:
+    import build123d  # noqa: F401 - the whole point: pay the import once
+
+    from . import runtime  # noqa: F401
+    from .. import kernel  # noqa: F401
+    out = sys.stdout
+    out.write(json.dumps({"ready": True, "pid": os.getpid()}) + "\n")
+    out.flush()
+    for line in sys.stdin:
+        if not line.strip():
+            continue
+        req = json.loads(line)
+        try:
+            reply = _run_one(req)
+        except Exception as exc:  # noqa: BLE001
+            reply = {"id": req.get("id"), "status": "error", "detail": str(exc)}
+        out.write(json.dumps(reply) + "\n")
+        out.flush()
+
+
+if __name__ == "__main__":
+    main()
