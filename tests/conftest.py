@@ -1,0 +1,25 @@
+"""Suite-wide settings: no network model calls, one shared warm compile worker."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+# Forbid real model calls for the whole suite (loopback fake servers stay allowed).
+os.environ["PROCEDURA_BREP_NO_NETWORK"] = "1"
+
+
+@pytest.fixture(scope="session")
+def worker():
+    """One warm sandbox worker for the whole session (pays the build123d import once)."""
+    from procedura_brep.program.sandbox import default_worker
+    return default_worker()
+
+
+@pytest.fixture(autouse=True)
+def _llm_guards():
+    """Forbid non-loopback model calls; fail a test that leaves a replay tape unconsumed."""
+    from procedura_brep.llm.testing import no_network, tape_guard
+    with no_network(), tape_guard():
+        yield
