@@ -1,0 +1,150 @@
+"""The ``procedura-brep`` command line: argument parsing and exit codes only.
+
+Exit codes: 0 success; 1 the program built but a gate or check failed (or the build failed on
+its own findings); 2 usage errors, unreadable input, or a program that does not compile.
+Errors are one line on stderr, never a traceback (``-v`` logs details).
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+import sys
+from pathlib import Path
+from typing import Annotated, Any, Callable, Optional
+
+import typer
+
+app = typer.Typer(
+    name="procedura-brep", add_completion=False, no_args_is_help=True,
+    pretty_exceptions_show_locals=False,
+    help="Text prompt -> editable CAD assembly: build123d parts joined by typed, checked mates.")
+
+EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
+
+
+def _err(msg: str) -> None:
+    typer.echo(f"error: {msg}", err=True)
+
+
+def guarded(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """Turn any library error into a one-line message and an exit code."""
+
+    @functools.wraps(fn)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        from .errors import CompileError, EditError, ProceduraError, ProgramFormatError
+        try:
+            return fn(*args, **kwargs)
+        except typer.Exit:
+            raise
+        except (EditError, ProgramFormatError, CompileError) as exc:
+            _err(str(exc))
+            raise typer.Exit(EXIT_USAGE) from None
+        except ProceduraError as exc:
+            _err(str(exc))
+            raise typer.Exit(EXIT_FAIL) from None
+        except (FileNotFoundError, IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
+            _err(f"cannot read input: {exc}")
+            raise typer.Exit(EXIT_USAGE) from None
+        except KeyboardInterrupt:
+            _err("interrupted")
+            raise typer.Exit(130) from None
+        except Exception as exc:  # noqa: BLE001 - never a traceback for users
+            logging.getLogger(__name__).debug("internal error", exc_info=True)
+            _err(f"internal error: {type(exc).__name__}: {exc} (run with -v for details)")
+            raise typer.Exit(3) from None
+
+    return wrapper
+
+
+@app.callback()
+def main_callback(verbose: Annotated[bool, typer.Option("--verbose", "-v", help="Log details.")] = False
+                  ) -> None:
+    logging.basicConfig(level=logging.DEBUG if verbose else logging.WARNING,
+                        format="%(levelname)s %(name)s: %(message)s")
+
+
+def _read(program: Path) -> str:
+    if not program.is_file():
+        from .errors import EditError
+        raise EditError(f"program {program} does not exist or is not a file")
+    return program.read_text(encoding="utf-8")
+
+
+def _formats(text: str | None) -> tuple[str, ...]:
+    from .errors import EditError
+    from .pipeline import ALL_FORMATS
+    if text is None:
+        return ALL_FORMATS
+    fmts = tuple(f.strip().lower() for f in text.split(",") if f.strip())
+    bad = [f for f in fmts if f not in ALL_FORMATS]
+    if bad:
+        raise EditError(f"unknown format(s) {', '.join(bad)}; choose from {','.join(ALL_FORMATS)}")
+    return fmts
+
+
+def _do_build(program: Path, out: Path, formats: tuple[str, ...], source: str | None = None,
+              gates: bool = True) -> int:
+    from .pipeline import build
+    res = build(program, out, formats=formats, source=source, gates=gates)
+    if res.ok:
+        n = len(res.model.parts) if res.model else 0
+        t = res.report.get("timings", {}).get("total_s", 0.0)
+        typer.echo(f"built {n} parts, {len(res.model.mates) if res.model else 0} mates -> {out} "
+                   f"({t:.1f} s)")
+        return EXIT_OK
+    _err(f"build failed: {res.reason}")
+    if res.status == "gates_failed":
+        return EXIT_FAIL
+    return EXIT_USAGE if res.model is None or not res.model.parts else EXIT_FAIL
+
+
+@app.command()
+@guarded
+def build(
+    program: Annotated[Path, typer.Argument(help="The program file (a .py in the program format).")],
+    out: Annotated[Path, typer.Option("-o", "--out", help="The run directory to write.")],
+    formats: Annotated[Optional[str], typer.Option(help="Comma list of step,obj,glb,usd,urdf,mjcf "
+                                                        "(default: all).")] = None,
+    no_gates: Annotated[bool, typer.Option("--no-gates", help="Skip the verification gates.")] = False,
+) -> None:
+    """Compile PROGRAM in the sandbox, place its parts and write the run directory."""
+    raise typer.Exit(_do_build(program, out, _formats(formats), gates=not no_gates))
+
+
+@app.command()
+@guarded
+def edit(
+    program: Annotated[Path, typer.Argument(help="The program to edit.")],
+    set_: Annotated[list[str], typer.Option("--set", help="NAME=VALUE; repeatable.")],
+    output: Annotated[Optional[Path], typer.Option("-o", "--output", help="Write the edited program "
+                                                                          "here (default: in place).")] = None,
+    build_dir: Annotated[Optional[Path], typer.Option("--build", help="Also build the edited "
+                                                                      "program into this directory.")] = None,
+) -> None:
+    """Change named params (only their lines; comments and formatting kept)."""
+    from .program.edit import parse_assignment, set_params
+    source = _read(program)
+    values = dict(parse_assignment(s) for s in set_)
+    new = set_params(source, values)
+    target = output or program
+    code = EXIT_OK
+    if build_dir is not None:
+        code = _do_build(target, build_dir, _formats(None), source=new)
+        if code != EXIT_OK and output is None:
+            _err(f"the edit was not written to {program} because the edited program failed; "
+                 f"pass -o to keep it elsewhere")
+            raise typer.Exit(code)
+    from .pipeline import write_atomic
+    write_atomic(target, new)
+    typer.echo(f"set {', '.join(f'{k}={v}' for k, v in values.items())} -> {target}")
+    raise typer.Exit(code)
+
+
+def main() -> None:
+    """Console-script entry point."""
+    app()
+
+
+if __name__ == "__main__":
+    main()

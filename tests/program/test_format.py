@@ -1,0 +1,105 @@
+"""The five-section format, param edits, and program-level compile errors."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from procedura_brep.errors import EditError, ProgramFormatError
+from procedura_brep.program.edit import parse_assignment, set_params
+from procedura_brep.program.sections import parse_sections
+
+LAMP = (Path(__file__).parent / "lamp.py").read_text()
+
+
+def line_of(text: str, needle: str) -> int:
+    return next(i for i, ln in enumerate(text.splitlines(), 1) if needle in ln)
+
+
+def test_parse_finds_sections_and_params():
+    sec = parse_sections(LAMP)
+    assert list(sec.starts) == ["params", "helpers", "parts", "frames", "assembly"]
+    assert list(sec.params) == ["base_w", "base_t", "post_d", "post_h", "pin_d"]
+    assert sec.params["post_d"].comment.startswith("# mm")
+
+
+def test_missing_section_reports_line():
+    src = LAMP.replace("# === frames ===\n", "")
+    with pytest.raises(ProgramFormatError, match="section 'assembly' is out of order") as exc:
+        parse_sections(src)
+    assert exc.value.line == line_of(src, "# === assembly ===")
+
+
+def test_missing_last_section():
+    src = LAMP.replace("# === assembly ===\n", "")
+    with pytest.raises(ProgramFormatError, match=r"missing section marker\(s\) # === assembly ==="):
+        parse_sections(src)
+
+
+def test_duplicated_section_reports_both_lines():
+    src = LAMP + "\n# === params ===\n"
+    with pytest.raises(ProgramFormatError, match="appears twice") as exc:
+        parse_sections(src)
+    assert exc.value.line == len(src.splitlines())
+
+
+def test_out_of_order():
+    src = LAMP.replace("# === helpers ===", "# === TMP ===").replace("# === parts ===", "# === helpers ===") \
+        .replace("# === TMP ===", "# === parts ===")
+    with pytest.raises(ProgramFormatError, match="out of order"):
+        parse_sections(src)
+
+
+def test_params_section_holds_only_assignments():
+    src = LAMP.replace("pin_d = 8.0", "def f(): pass\npin_d = 8.0")
+    with pytest.raises(ProgramFormatError, match="only `name = value"):
+        parse_sections(src)
+
+
+def test_edit_changes_only_that_line():
+    new = set_params(LAMP, {"post_d": 24, "base_t": 14.5})
+    old_lines, new_lines = LAMP.splitlines(), new.splitlines()
+    changed = [i for i, (a, b) in enumerate(zip(old_lines, new_lines)) if a != b]
+    assert len(old_lines) == len(new_lines) and len(changed) == 2
+    assert "post_d = 24.0   # mm, post diameter" in new
+    assert "base_t = 14.5   # mm, base thickness" in new
+
+
+def test_edit_unknown_param_lists_params():
+    with pytest.raises(EditError, match="unknown param.*wheel_d.*params: base_w, base_t, post_d"):
+        set_params(LAMP, {"wheel_d": 3})
+
+
+@pytest.mark.parametrize("text", ["post_d", "post_d=abc", "post_d=nan", "post_d=1e999"])
+def test_bad_assignment(text):
+    with pytest.raises(EditError):
+        parse_assignment(text)
+
+
+def test_module_level_error_has_line(worker):
+    src = LAMP.replace("# === helpers ===", "# === helpers ===\nx = 1 / 0")
+    m = worker.compile(src)
+    f = m.findings[0]
+    assert f.code == "module-exception" and "ZeroDivisionError" in f.message
+    assert f.line == line_of(src, "x = 1 / 0")
+
+
+def test_unmated_part_and_unknown_frame(worker):
+    src = LAMP.replace('mate("arm.pivot", "post.head"', 'mate("arm.pivot", "post.nose"')
+    m = worker.compile(src)
+    assert any("publishes no frame 'nose'" in f.message and "head" in f.message for f in m.findings)
+    assert any(f.code == "unmated" and f.part == "arm" for f in m.findings)
+
+
+def test_root_cannot_be_a_child(worker):
+    src = LAMP + 'mate("base.top", "arm.pivot", "seat_face", nominal="post_d", name="root_child")\n'
+    m = worker.compile(src)
+    assert any(f.code == "plan-order" and "root part" in f.message for f in m.findings)
+
+
+def test_parent_must_be_placed_first(worker):
+    src = LAMP.replace('mate("post.foot", "base.top", "peg_socket", nominal="post_d", fit="location")\n', "")
+    src += 'mate("post.foot", "base.top", "peg_socket", nominal="post_d", fit="location")\n'
+    m = worker.compile(src)
+    assert any(f.code == "plan-order" and "'post' is not placed yet" in f.message for f in m.findings)
