@@ -22,6 +22,12 @@ def _ocp():  # lazy: keeps `procedura-brep --help` instant
     return locals()
 
 
+def warm_up() -> None:
+    """Import the OCP modules this process needs (overlaps with the worker's start-up)."""
+    _ocp()
+    from OCP import STEPCAFControl, XCAFDoc  # noqa: F401 - the STEP writer's modules
+
+
 def read_brep(data: bytes):
     """A TopoDS_Shape from OCCT binary BRep bytes."""
     o = _ocp()

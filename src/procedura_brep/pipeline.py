@@ -40,7 +40,10 @@ def write_atomic(path: Path, data: bytes | str) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     raw = data.encode("utf-8") if isinstance(data, str) else data
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    umask = os.umask(0)
+    os.umask(umask)
     try:
+        os.fchmod(fd, 0o666 & ~umask)
         with os.fdopen(fd, "wb") as fh:
             fh.write(raw)
         os.replace(tmp, path)
@@ -127,7 +130,11 @@ class BuildResult:
 
 
 def compile_file(source: str, name: str) -> CompiledModel:
-    from .program.sandbox import compile_source
+    """Compile in the warm worker; while it boots (~3 s), load the parent's OCP modules."""
+    from . import kernel
+    from .program.sandbox import compile_source, default_worker
+    default_worker()  # starts the worker process now, returns at once
+    kernel.warm_up()
     return compile_source(source, name=name)
 
 
