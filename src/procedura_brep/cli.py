@@ -141,6 +141,101 @@ def edit(
     raise typer.Exit(code)
 
 
+def _compile(program: Path):
+    """Compile PROGRAM in the sandbox; a program that fails is a usage error (exit 2)."""
+    from .errors import CompileError
+    from .pipeline import compile_file, program_name
+    model = compile_file(_read(program), program_name(program))
+    if not model.ok:
+        errs = [f for f in model.findings if f.severity == "error"]
+        raise CompileError(f"{program} does not compile: {errs[0].message}"
+                           + (f" (+{len(errs) - 1} more)" if len(errs) > 1 else ""), errs)
+    return model
+
+
+@app.command()
+@guarded
+def render(
+    program: Annotated[Path, typer.Argument(help="The program to render.")],
+    out: Annotated[Path, typer.Option("-o", "--out", help="Directory for the PNGs.")],
+    views: Annotated[Optional[str], typer.Option(help="Comma list of view names, or 'all' "
+                                                      "(default: 12 views).")] = None,
+    mode: Annotated[str, typer.Option(help="parts | clay | pbr")] = "parts",
+    size: Annotated[int, typer.Option(help="Image side in pixels.")] = 512,
+    sheet: Annotated[bool, typer.Option("--sheet", help="Also write a contact sheet with legend.")] = False,
+    close_up: Annotated[Optional[str], typer.Option("--close-up", help="A part or mate name.")] = None,
+    frames: Annotated[bool, typer.Option("--frames", help="Draw every mate frame's axes.")] = False,
+) -> None:
+    """Render views of PROGRAM (parts-colour, grey clay or PBR), with cache and staleness."""
+    from .errors import EditError
+    from .render import render_to_dir
+    model = _compile(program)
+    try:
+        res = render_to_dir(model, out, views=views, mode=mode, size=size, sheet=sheet,  # type: ignore[arg-type]
+                            close_up=close_up, frames_overlay=frames)
+    except ValueError as exc:
+        raise EditError(str(exc)) from None
+    typer.echo(f"{len(res.rendered)} rendered, {len(res.cached)} from cache "
+               f"({res.seconds:.2f} s) -> {out}")
+    if res.stale_before:
+        typer.echo(f"replaced stale views: {', '.join(res.stale_before)}")
+    for key, path in sorted(res.paths.items()):
+        typer.echo(f"  {key}: {path}")
+
+
+@app.command()
+@guarded
+def generate(
+    prompt: Annotated[str, typer.Argument(help="What to model, in words.")],
+    out: Annotated[Path, typer.Option("-o", "--out", help="The run directory.")],
+    model: Annotated[str, typer.Option("--model", "-m", help="provider:model, e.g. openai:gpt-4o, "
+                                                             "anthropic:..., replay:TAPE, exchange:DIR")],
+    base_url: Annotated[Optional[str], typer.Option("--base-url", help="OpenAI-compatible server URL.")] = None,
+    image: Annotated[Optional[Path], typer.Option("--image", help="A reference PNG.")] = None,
+    max_cost: Annotated[Optional[float], typer.Option("--max-cost", help="Stop before spending more "
+                                                                         "than this many USD.")] = None,
+    attempts: Annotated[int, typer.Option(min=1, max=10, help="Model calls allowed.")] = 3,
+    timeout: Annotated[Optional[float], typer.Option(help="Seconds to wait for one reply.")] = None,
+    formats: Annotated[Optional[str], typer.Option(help="Exports (default: all).")] = None,
+) -> None:
+    """Generate a program from PROMPT with a model (one-shot mode), then build it."""
+    from .agent.oneshot import generate as run
+    from .llm import ConfigError, LLMError
+    png = image.read_bytes() if image else None
+    try:
+        res = run(prompt, out, model=model, base_url=base_url, max_cost_usd=max_cost,
+                  attempts=attempts, image=png, timeout_s=timeout, formats=_formats(formats))
+    except ConfigError as exc:
+        _err(str(exc))
+        raise typer.Exit(EXIT_USAGE) from None
+    except LLMError as exc:
+        _err(str(exc))
+        raise typer.Exit(EXIT_FAIL) from None
+    cost = res.usage.get("total_cost_usd")
+    tail = f", cost ${cost:.4f}" if isinstance(cost, (int, float)) else ""
+    if res.status == "ok":
+        typer.echo(f"generated and built in {res.attempts} call(s) -> {out}{tail}")
+        raise typer.Exit(EXIT_OK)
+    _err(f"generate {res.status} after {res.attempts} call(s): {res.message} (work kept in {out})")
+    raise typer.Exit(EXIT_FAIL)
+
+
+@app.command()
+@guarded
+def doctor(
+    model: Annotated[Optional[str], typer.Option("--model", "-m", help="Also check this provider.")] = None,
+    base_url: Annotated[Optional[str], typer.Option("--base-url")] = None,
+    ping: Annotated[bool, typer.Option("--ping", help="Make a 1-token call to the provider.")] = False,
+) -> None:
+    """Check the CAD kernel, renderer, MuJoCo, USD, FreeCAD and the provider."""
+    from .doctor import run_checks
+    checks = run_checks(model=model, base_url=base_url, ping=ping)
+    for c in checks:
+        typer.echo(c.line())
+    missing = [c for c in checks if not c.ok and not c.optional]
+    raise typer.Exit(EXIT_FAIL if missing else EXIT_OK)
+
+
 def main() -> None:
     """Console-script entry point."""
     app()

@@ -6,6 +6,7 @@ base_w = 120.0  # mm, square base side
 base_t = 12.0   # mm, base thickness
 post_d = 20.0   # mm, post diameter: the nominal of the post's peg_socket
 post_h = 80.0   # mm
+spigot_d = 12.0  # mm, spigot under the post: the nominal of its peg_socket
 pin_d = 8.0     # mm, hinge pin: the nominal of the arm's revolute mate
 
 # === helpers ===
@@ -31,5 +32,5 @@ frames("post", foot=Location((0, 0, 0)), head=Location((0, post_d / 2, post_h - 
 frames("arm", pivot=Location((7, -7, 0), (-90, 0, 0)))
 
 # === assembly ===
-mate("post.foot", "base.top", "peg_socket", nominal="post_d", fit="location")
+mate("post.foot", "base.top", "peg_socket", nominal="spigot_d", fit="location")
 mate("arm.pivot", "post.head", "revolute", nominal="pin_d", fit="clearance", limits=(-60, 60))

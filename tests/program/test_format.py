@@ -20,7 +20,7 @@ def line_of(text: str, needle: str) -> int:
 def test_parse_finds_sections_and_params():
     sec = parse_sections(LAMP)
     assert list(sec.starts) == ["params", "helpers", "parts", "frames", "assembly"]
-    assert list(sec.params) == ["base_w", "base_t", "post_d", "post_h", "pin_d"]
+    assert list(sec.params) == ["base_w", "base_t", "post_d", "post_h", "spigot_d", "pin_d"]
     assert sec.params["post_d"].comment.startswith("# mm")
 
 
@@ -99,7 +99,7 @@ def test_root_cannot_be_a_child(worker):
 
 
 def test_parent_must_be_placed_first(worker):
-    src = LAMP.replace('mate("post.foot", "base.top", "peg_socket", nominal="post_d", fit="location")\n', "")
-    src += 'mate("post.foot", "base.top", "peg_socket", nominal="post_d", fit="location")\n'
+    src = LAMP.replace('mate("post.foot", "base.top", "peg_socket", nominal="spigot_d", fit="location")\n', "")
+    src += 'mate("post.foot", "base.top", "peg_socket", nominal="spigot_d", fit="location")\n'
     m = worker.compile(src)
     assert any(f.code == "plan-order" and "'post' is not placed yet" in f.message for f in m.findings)

@@ -1,0 +1,126 @@
+"""One-shot generation: the whole program in one model call, then compile, gate, build.
+
+This is the control mode of DESIGN.md section 5 (the staged plan/build/refine agent builds on
+the same pieces). Up to ``attempts`` calls: a reply that is not a program, or a program that
+fails to compile or pass its mates, is answered with the measured findings and retried.
+Every request and reply goes to ``OUT/transcript.jsonl``, which replays with ``replay:OUT``.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..llm import BudgetExceeded, Image, LLMError, Message, Request, Settings, build_client, preflight
+from ..llm.errors import MalformedReplyError
+from ..pipeline import BuildResult, build, dump_json, write_atomic
+from ..program.model import Finding
+from .prompts import system_prompt, template
+
+log = logging.getLogger(__name__)
+FENCE_RE = re.compile(r"```(?:python|py)?[ \t]*\n(.*?)```", re.S)
+
+
+def extract_program(text: str) -> str:
+    """The program in a reply: its first fenced python block, or the whole reply if bare.
+
+    Raises:
+        MalformedReplyError: no program could be found in the reply.
+    """
+    m = FENCE_RE.search(text)
+    body = m.group(1) if m else text
+    if "procedura_brep.program" not in body or "# === assembly ===" not in body:
+        raise MalformedReplyError("the reply holds no program: expected one ```python block with "
+                                  "the five marked sections")
+    return body.strip() + "\n"
+
+
+def format_findings(findings: list[Finding], source: str) -> str:
+    """Model feedback: each finding with its part, line and 1-3 lines of program context."""
+    try:
+        from ..gates.feedback import format_feedback
+        return format_feedback(source, findings)
+    except ImportError:  # pragma: no cover - gates ship with the package
+        return "\n".join(f"- {f.message}" for f in findings)
+
+
+@dataclass
+class GenerateResult:
+    status: str
+    out_dir: Path
+    attempts: int = 0
+    build: BuildResult | None = None
+    usage: dict[str, Any] = field(default_factory=dict)
+    message: str = ""
+
+
+def generate(prompt: str, out_dir: Path, *, model: str, base_url: str | None = None,
+             max_cost_usd: float | None = None, attempts: int = 3, image: bytes | None = None,
+             timeout_s: float | None = None, formats: tuple[str, ...] | None = None) -> GenerateResult:
+    """Generate a program for ``prompt`` and build it into ``out_dir``.
+
+    Raises:
+        ConfigError / ProviderError: bad model name or key, unreachable endpoint (one line).
+    """
+    preflight(model, base_url=base_url)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    client = build_client(model, base_url=base_url, timeout_s=timeout_s, max_cost_usd=max_cost_usd,
+                          transcript_path=out_dir / "transcript.jsonl")
+    system = system_prompt()
+    images = (Image(image, "reference.png"),) if image else ()
+    messages: list[Message] = [Message.user(template("oneshot_user").replace("{prompt}", prompt), *images)]
+    result = GenerateResult("failed", out_dir)
+    try:
+        for attempt in range(attempts):
+            result.attempts = attempt + 1
+            reply = client.complete(Request("oneshot", attempt, system, tuple(messages),
+                                            Settings(max_tokens=16000, temperature=0.2)))
+            messages.append(Message.assistant(reply.text))
+            try:
+                source = extract_program(reply.text)
+            except MalformedReplyError as exc:
+                result.message = str(exc)
+                messages.append(Message.user(template("feedback").replace("{findings}", f"- {exc}")))
+                continue
+            write_atomic(out_dir / "history" / f"{attempt + 1:03d}.py", source)
+            result.build = build(out_dir / "program.py", out_dir, source=source, formats=formats,
+                                 name=None)
+            if result.build.ok:
+                result.status = "ok"
+                break
+            result.message = result.build.reason
+            feedback = format_findings(result.build.findings or _gate_findings(result.build), source)
+            messages.append(Message.user(template("feedback").replace("{findings}", feedback)))
+    except BudgetExceeded as exc:
+        result.status, result.message = "budget_exceeded", str(exc)
+    finally:
+        result.usage = client.ledger.summary()
+        _annotate_report(result, model, base_url)
+        in_flight = sys.exc_info()[0] is not None
+        try:
+            client.close()  # a replay tape checks here that it was fully consumed
+        except LLMError:
+            if not in_flight:
+                raise
+    return result
+
+
+def _gate_findings(b: BuildResult) -> list[Finding]:
+    gates = b.report.get("gates", {})
+    return [Finding(**{k: v for k, v in f.items() if k in Finding.__dataclass_fields__})
+            for f in gates.get("findings", [])]
+
+
+def _annotate_report(result: GenerateResult, model: str, base_url: str | None) -> None:
+    path = result.out_dir / "report.json"
+    import json
+    report = json.loads(path.read_text()) if path.exists() else {}
+    report.update({"status": result.status, "mode": "oneshot", "model": model, "endpoint": base_url,
+                   "attempts": result.attempts, "usage": result.usage})
+    if result.message and result.status != "ok":
+        report["reason"] = result.message
+    write_atomic(path, dump_json(report))

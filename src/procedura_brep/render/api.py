@@ -1,0 +1,226 @@
+"""Public entry points: render views to images in memory, or to a directory with a cache."""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+from ..errors import RangeError
+from ..program.model import CompiledModel
+from . import compose, scene
+from .cache import Manifest, geometry_key, image_key
+from .gl import Mode, renderer
+from .palette import RGB, hex_color, part_colors
+from .views import VIEWS, fit_camera, parse_views
+
+log = logging.getLogger(__name__)
+
+MODES: tuple[str, ...] = ("parts", "clay", "pbr")
+SIZE_RANGE: tuple[int, int] = (32, 4096)
+"""Allowed image side in pixels."""
+FRAME_AXIS_FRACTION: float = 0.06
+"""Mate-frame overlay axes are this fraction of the model's bounding-box diagonal."""
+CLOSE_UP_VIEWS: tuple[str, ...] = ("iso_se", "iso_nw", "iso_se_low", "front")
+"""Views drawn for a close-up."""
+CLOSE_UP_NOMINALS: float = 3.0
+"""A mate close-up shows a cube of this many nominals (half-side) around the mate origin..."""
+CLOSE_UP_PART_FRACTION: float = 0.25
+"""...or this fraction of the larger partner's box diagonal, whichever is larger."""
+
+
+@dataclass
+class Focus:
+    """What a close-up shows: the parts drawn, the box fitted, the frames overlaid."""
+
+    name: str
+    parts: list[str]
+    lo: np.ndarray
+    hi: np.ndarray
+    frames: list[tuple[str, np.ndarray]]
+    axis_len: float
+
+
+def resolve_focus(model: CompiledModel, name: str) -> Focus:
+    """A close-up on part ``name`` (alone, with its frames) or mate ``name`` (child + parent)."""
+    parts = {p.name: p for p in model.parts}
+    if name in parts:
+        lo, hi = scene.bounds(model, [name])
+        p = parts[name]
+        frames = [(f"{name}.{f}", p.world_frame(f)) for f in sorted(p.frames)]
+        return Focus(name, [name], lo, hi, frames, float(np.linalg.norm(hi - lo)) * 0.12)
+    for m in model.mates:
+        if m.name == name:
+            shown = [n for n in (m.parent, m.child) if n in parts]
+            lo, hi = scene.bounds(model, shown)
+            half = max(CLOSE_UP_NOMINALS * float(m.nominal or 0.0),
+                       CLOSE_UP_PART_FRACTION * float(np.linalg.norm(hi - lo)), 1e-3)
+            o = np.asarray(m.world_frame, float)[:3, 3]
+            return Focus(name, shown, o - half, o + half, [(name, np.asarray(m.world_frame, float))],
+                         half * 0.6)
+    raise ValueError(f"close-up target {name!r} is neither a part nor a mate; parts: "
+                     f"{', '.join(parts)}; mates: {', '.join(m.name for m in model.mates) or '(none)'}")
+
+
+def _check(mode: str, size: int) -> None:
+    if mode not in MODES:
+        raise ValueError(f"unknown render mode {mode!r}; use one of: {', '.join(MODES)}")
+    if not SIZE_RANGE[0] <= int(size) <= SIZE_RANGE[1]:
+        raise RangeError("render size", size, *SIZE_RANGE, unit="px")
+
+
+def render_images(model: CompiledModel, views: str | list[str] | None = None, *, mode: Mode = "parts",
+                  size: int = 512, focus: str | None = None,
+                  frames_overlay: bool = False) -> dict[str, Image.Image]:
+    """Render ``views`` of ``model`` in memory: view name -> RGB PIL image (``size`` square).
+
+    Args:
+        model: the compiled assembly.
+        views: catalog names (list or comma string; ``None`` = the 12 defaults, ``"all"`` = 20).
+        mode: ``parts`` (distinct colour per part), ``clay`` (neutral, fixed rig), ``pbr``.
+        size: image side in pixels, 32..4096.
+        focus: a part or mate name for a close-up (draws only that part / the mate's two parts).
+        frames_overlay: draw every mate frame's axes (a close-up always draws its own frames).
+    """
+    _check(mode, size)
+    names = parse_views(views)
+    colors = part_colors([p.name for p in model.parts])
+    shown = None
+    if focus is not None:
+        f = resolve_focus(model, focus)
+        shown, lo, hi = f.parts, f.lo, f.hi
+        frames, axis_len = f.frames, f.axis_len
+    else:
+        lo, hi = scene.bounds(model)
+        frames = [(m.name, np.asarray(m.world_frame, float)) for m in model.mates] if frames_overlay else []
+        axis_len = FRAME_AXIS_FRACTION * float(np.linalg.norm(hi - lo))
+    verts = scene.vertex_array(model, colors, shown)
+    cams = [fit_camera(VIEWS[n], lo, hi) for n in names]
+    out: dict[str, Image.Image] = {}
+    for name, cam, frame in zip(names, cams, renderer().draw(verts, cams, size, mode)):
+        img = Image.fromarray(compose.finish(frame, mode), "RGB")
+        if frames:
+            compose.draw_frames(img, cam, frames, length=axis_len)
+        out[name] = img
+    return out
+
+
+def legend_of(model: CompiledModel) -> list[tuple[str, RGB]]:
+    """(part name, colour) for every part, in model order."""
+    colors = part_colors([p.name for p in model.parts])
+    return [(p.name, colors[p.name]) for p in model.parts]
+
+
+@dataclass
+class RenderResult:
+    """What :func:`render_to_dir` wrote and whether it shows the current program.
+
+    Attributes:
+        out_dir: the directory.
+        paths: label -> file; labels are view names, ``closeup:<view>``, ``sheet``,
+            ``closeup_sheet`` and ``legend``.
+        legend: part name -> hex colour (the parts-mode colours).
+        geometry: the geometry key of the model rendered.
+        rendered: labels drawn by this call.
+        cached: labels reused from an earlier call with the same key.
+        stale_before: labels whose earlier file showed another program (now redrawn).
+        current: every written image shows the current program (always true on return).
+        seconds: wall time of the call.
+    """
+
+    out_dir: Path
+    paths: dict[str, Path] = field(default_factory=dict)
+    legend: dict[str, str] = field(default_factory=dict)
+    geometry: str = ""
+    rendered: list[str] = field(default_factory=list)
+    cached: list[str] = field(default_factory=list)
+    stale_before: list[str] = field(default_factory=list)
+    current: bool = True
+    seconds: float = 0.0
+
+    def as_dict(self) -> dict:
+        return {"out_dir": str(self.out_dir), "paths": {k: str(v) for k, v in self.paths.items()},
+                "legend": self.legend, "geometry": self.geometry, "rendered": self.rendered,
+                "cached": self.cached, "stale_before": self.stale_before, "current": self.current,
+                "seconds": round(self.seconds, 3)}
+
+
+def render_to_dir(model: CompiledModel, out_dir: str | Path, *, views: str | list[str] | None = None,
+                  mode: Mode = "parts", size: int = 512, sheet: bool = False,
+                  close_up: str | None = None, frames_overlay: bool = False) -> RenderResult:
+    """Render views (and optionally a contact sheet and a close-up) of ``model`` into ``out_dir``.
+
+    Files: ``<mode>_<view>.png``, ``<mode>_sheet.png``, ``<mode>_closeup_<name>_<view>.png``,
+    ``<mode>_closeup_<name>_sheet.png``, ``legend.json`` and the cache manifest ``renders.json``.
+    Images whose cache key matches the manifest are not redrawn.
+
+    Raises:
+        ValueError: unknown mode, view or close-up name (the message lists the valid ones).
+        RangeError: ``size`` outside 32..4096 or more than 20 views.
+    """
+    t0 = time.perf_counter()
+    _check(mode, size)
+    names = parse_views(views)
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    man = Manifest.load(out)
+    geo = geometry_key(model)
+    res = RenderResult(out_dir=out, geometry=geo,
+                       legend={n: hex_color(c) for n, c in legend_of(model)})
+    jobs: list[tuple[str | None, list[str], str]] = [(None, names, "")]
+    if close_up is not None:
+        resolve_focus(model, close_up)  # fail early on an unknown name
+        safe = "".join(c if c.isalnum() or c in "-_" else "_" for c in close_up)
+        jobs.append((close_up, list(CLOSE_UP_VIEWS), f"closeup_{safe}_"))
+    for focus, vnames, prefix in jobs:
+        overlay = frames_overlay if focus is None else True
+        keys = {v: image_key(model, geo, {"mode": mode, "size": size, "view": v, "focus": focus,
+                                          "overlay": overlay}) for v in vnames}
+        files = {v: f"{mode}_{prefix}{v}.png" for v in vnames}
+        todo = [v for v in vnames if not man.hit(files[v], keys[v])]
+        images = render_images(model, todo, mode=mode, size=size, focus=focus,
+                               frames_overlay=overlay) if todo else {}
+        label = (lambda v: v) if focus is None else (lambda v: f"closeup:{v}")
+        for v in vnames:
+            path = out / files[v]
+            res.paths[label(v)] = path
+            if v in images:
+                old = man.images.get(files[v])
+                if old and old.get("geometry") != geo:
+                    res.stale_before.append(label(v))
+                images[v].save(path, optimize=False)
+                man.images[files[v]] = {"key": keys[v], "geometry": geo, "view": v, "mode": mode,
+                                        "size": size, "focus": focus}
+                res.rendered.append(label(v))
+            else:
+                res.cached.append(label(v))
+        if sheet:
+            sheet_label = "sheet" if focus is None else "closeup_sheet"
+            sheet_file = f"{mode}_{prefix}sheet.png"
+            skey = image_key(model, geo, {"sheet": [keys[v] for v in vnames]})
+            res.paths[sheet_label] = out / sheet_file
+            if man.hit(sheet_file, skey):
+                res.cached.append(sheet_label)
+            else:
+                imgs = [(v, images[v] if v in images else Image.open(out / files[v]).convert("RGB"))
+                        for v in vnames]
+                legend = legend_of(model)
+                if focus is not None:
+                    legend = [(n, c) for n, c in legend if n in resolve_focus(model, focus).parts]
+                title = f"{model.name}  mode={mode}" + (f"  close-up: {focus}" if focus else "")
+                compose.contact_sheet(imgs, title=title, legend=legend).save(out / sheet_file)
+                man.images[sheet_file] = {"key": skey, "geometry": geo, "mode": mode, "size": size,
+                                          "focus": focus}
+                res.rendered.append(sheet_label)
+    legend_path = out / "legend.json"
+    legend_path.write_text(json.dumps(res.legend, indent=1))
+    res.paths["legend"] = legend_path
+    man.save()
+    res.seconds = time.perf_counter() - t0
+    log.info("rendered %d, reused %d images in %.2f s", len(res.rendered), len(res.cached), res.seconds)
+    return res

@@ -1,0 +1,60 @@
+"""One-shot generation driven by a hand-written replay tape and by a scripted provider."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from procedura_brep.agent.oneshot import extract_program
+from procedura_brep.cli import app
+from procedura_brep.llm.errors import MalformedReplyError
+
+TAPE = Path(__file__).parents[2] / "examples" / "tapes" / "lamp_oneshot.jsonl"
+
+
+def test_replay_tape_builds_after_feedback(tmp_path, worker):
+    out = tmp_path / "run"
+    res = CliRunner().invoke(app, ["generate", "a desk lamp with a swinging arm", "-o", str(out),
+                                   "--model", f"replay:{TAPE}", "--formats", "step"])
+    assert res.exit_code == 0, res.output
+    report = json.loads((out / "report.json").read_text())
+    assert report["status"] == "ok" and report["attempts"] == 2 and report["mode"] == "oneshot"
+    assert [p["name"] for p in report["parts"]] == ["base", "post", "arm"]
+    lines = (out / "transcript.jsonl").read_text().splitlines()
+    assert len(lines) == 2
+    second = json.loads(lines[1])["request"]
+    # the feedback sent after attempt 1 names the mate and the literal nominal
+    assert "param name" in json.dumps(second) and "post_foot" in json.dumps(second)
+    assert sorted(p.name for p in (out / "history").iterdir()) == ["001.py", "002.py"]
+    assert (out / "model.step").stat().st_size > 1000
+
+
+def test_unreachable_endpoint_fails_fast_and_names_it(tmp_path):
+    t = time.monotonic()
+    res = CliRunner().invoke(app, ["generate", "a lamp", "-o", str(tmp_path / "x"), "--model",
+                                   "openai:some-model", "--base-url", "http://127.0.0.1:9/v1"])
+    assert res.exit_code == 1
+    assert "127.0.0.1:9" in res.output and "Traceback" not in res.output
+    assert time.monotonic() - t < 15
+
+
+def test_tape_with_no_reply_for_a_step_is_an_error(tmp_path):
+    tape = tmp_path / "t.jsonl"
+    tape.write_text(TAPE.read_text().splitlines()[0] + "\n")  # only the broken first reply
+    res = CliRunner().invoke(app, ["generate", "a lamp", "-o", str(tmp_path / "r"), "--model",
+                                   f"replay:{tape}", "--formats", "step"])
+    assert res.exit_code == 1
+    assert "no recorded reply for role='oneshot' step=1" in res.output
+    assert json.loads((tmp_path / "r" / "report.json").read_text())["status"] == "failed"
+
+
+def test_extract_program():
+    src = TAPE.read_text().splitlines()[1]
+    text = json.loads(src)["reply"]["text"]
+    assert extract_program(text).startswith('"""Desk lamp')
+    with pytest.raises(MalformedReplyError, match="no program"):
+        extract_program("I cannot do that.")
