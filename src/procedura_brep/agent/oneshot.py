@@ -15,7 +15,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..llm import BudgetExceeded, Image, LLMError, Message, Request, Settings, build_client, preflight
+from ..llm import (BudgetExceeded, Client, Image, Ledger, LLMError, Message, Request, Settings,
+                   Transcript, build_client, preflight)
 from ..llm.errors import MalformedReplyError
 from ..pipeline import BuildResult, build, dump_json, write_atomic
 from ..program.model import Finding
@@ -66,10 +67,15 @@ def generate(prompt: str, out_dir: Path, *, model: str, base_url: str | None = N
     Raises:
         ConfigError / ProviderError: bad model name or key, unreachable endpoint (one line).
     """
-    preflight(model, base_url=base_url)
+    provider = preflight(model, base_url=base_url)
     out_dir.mkdir(parents=True, exist_ok=True)
-    client = build_client(model, base_url=base_url, timeout_s=timeout_s, max_cost_usd=max_cost_usd,
-                          transcript_path=out_dir / "transcript.jsonl")
+    transcript = out_dir / "transcript.jsonl"
+    if timeout_s is None:  # reuse the checked provider (a replay tape is opened once)
+        client = Client(provider, ledger=Ledger(max_cost_usd=max_cost_usd),
+                        transcript=Transcript(transcript))
+    else:
+        client = build_client(model, base_url=base_url, timeout_s=timeout_s,
+                              max_cost_usd=max_cost_usd, transcript_path=transcript)
     system = system_prompt()
     images = (Image(image, "reference.png"),) if image else ()
     messages: list[Message] = [Message.user(template("oneshot_user").replace("{prompt}", prompt), *images)]
