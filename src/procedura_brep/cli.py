@@ -155,6 +155,59 @@ def _compile(program: Path):
 
 @app.command()
 @guarded
+def check(
+    program: Annotated[Path, typer.Argument(help="The program to check.")],
+    json_: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
+) -> None:
+    """Run every gate (compile, mate, connectivity) and the mesh metrics on PROGRAM.
+
+    Exit 0 when every gate passes, 1 when a gate fails, 2 on usage or compile errors.
+    """
+    import json
+
+    from .gates import check_model
+    model = _compile(program)
+    report = check_model(model, _read(program))
+    data = report.as_dict()
+    if json_:
+        typer.echo(json.dumps(data, indent=2))
+    else:
+        _print_check(data)
+    raise typer.Exit(EXIT_OK if report.passed else EXIT_FAIL)
+
+
+def _print_check(data: dict[str, Any]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+    con = Console()
+    t = Table(title=f"mate gate: {data['model']}")
+    for col in ("mate", "area mm^2", "limit", "penetration mm", "limit", "verdict"):
+        t.add_column(col)
+    for name, m in data["mates"].items():
+        ok = m.get("passed")
+        t.add_row(name, f"{m.get('area_mm2', float('nan')):.3g}", f"{m.get('area_limit_mm2', float('nan')):.3g}",
+                  f"{m.get('penetration_mm', float('nan')):.3g}",
+                  f"{m.get('penetration_limit_mm', float('nan')):.3g}",
+                  "[green]pass[/]" if ok else "[red]FAIL[/]")
+    con.print(t)
+    conn, met = data["connectivity"], data["metrics"]
+    t2 = Table(title="connectivity and metrics")
+    t2.add_column("measure")
+    t2.add_column("value")
+    for k, v in (("N_vis (tau = %g)" % conn.get("tau", 0.01), conn.get("n_vis")),
+                 ("components", conn.get("components")), ("span mm", conn.get("span_mm")),
+                 ("triangles", met.get("triangles")), ("Shrp60 mm", met.get("shrp60_mm")),
+                 ("Shrp60 / span", met.get("shrp60_per_span")), ("Dih95 deg", met.get("dih95_deg"))):
+        t2.add_row(k, str(v))
+    con.print(t2)
+    for f in data["findings"]:
+        colour = "red" if f.get("severity") == "error" else "yellow"
+        con.print(f"[{colour}]{f.get('severity')}[/] {f.get('code')}: {f.get('message')}")
+    con.print("[green]all gates pass[/]" if data["passed"] else "[red]a gate failed[/]")
+
+
+@app.command()
+@guarded
 def render(
     program: Annotated[Path, typer.Argument(help="The program to render.")],
     out: Annotated[Path, typer.Option("-o", "--out", help="Directory for the PNGs.")],

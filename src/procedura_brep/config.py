@@ -17,7 +17,14 @@ class Tolerances:
         placement_rad: max angle between those frames.
         residual_mm: a secondary static mate whose residual exceeds this is reported as a finding.
         residual_rad: same, for rotation.
-        contact_mm: two parts closer than this touch (connectivity, contact regions).
+        contact_mm: two faces closer than this are in contact (contact regions, evidence).
+        connect_mm: two pieces closer than this are connected (connectivity gate); large
+            enough to bridge ISO 286 fit clearances (tens of micrometres).
+        bearing_angle_deg: mate gate: child faces within this angle of -Z of the mate frame
+            (and parent faces of +Z) are bearing faces.
+        penetration_fill_box: mate gate: an interference solid filling at least this fraction
+            of its mate-frame box is block-like (a gouge: depth = its smallest side); thinner
+            ones are fit rings (depth = wall thickness 2V/A).
         mesh_linear_mm: tessellation linear deflection for every shipped mesh (fixed).
         mesh_angular_rad: tessellation angular deflection (fixed).
         mesh_weld_mm: vertices closer than this are welded before topology is counted.
@@ -36,6 +43,9 @@ class Tolerances:
     residual_mm: float = 1e-3
     residual_rad: float = 1e-6
     contact_mm: float = 1e-3
+    connect_mm: float = 0.05
+    bearing_angle_deg: float = 30.0
+    penetration_fill_box: float = 0.5
     mesh_linear_mm: float = 0.1
     mesh_angular_rad: float = 0.35
     mesh_weld_mm: float = 1e-5

@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import MateError, ProceduraError, ProgramFormatError
 from ..mates import check_options, get_type
 from ..mates import placement as pl
-from . import policy, registry
+from . import cache, policy, registry
 from .model import CompiledMate, CompiledModel, CompiledPart, Finding
 from .sections import parse_sections
 
@@ -92,12 +92,13 @@ class _Build:
         self.timings: dict[str, float] = {}
         self.solids: dict[str, Any] = {}
         self.world: dict[str, np.ndarray] = {}
+        self.cached_bytes: dict[str, bytes] = {}
 
     def fail(self, code: str, message: str, **kw: Any) -> None:
         self.findings.append(Finding(code, message, **kw))
 
 
-def compile_program(source: str, *, name: str = "model") -> CompiledModel:
+def compile_program(source: str, *, name: str = "model", cache_dir: str | None = None) -> CompiledModel:
     """Compile ``source`` in this process. Call only inside the sandbox child."""
     b = _Build(source, name)
     t0 = time.perf_counter()
@@ -124,15 +125,43 @@ def compile_program(source: str, *, name: str = "model") -> CompiledModel:
         b.fail("no-parts", "the program declares no @part functions")
     if any(f.severity == "error" for f in b.findings):
         return CompiledModel(name, params, [], [], b.findings, b.timings)
-    _eval_parts(b, reg)
-    mates = _build_mates(b, reg, params)
+    mates = _resolve_mates(b, reg, params)
+    keys = cache.part_keys(source, sections, reg, params, mates, glb)
+    hits = _load_cached(b, keys, cache_dir)
+    _eval_parts(b, reg, hits)
+    _apply_features(b, reg, mates, hits)
     _place(b, reg, mates)
-    return _serialise(b, reg, params, mates, time.perf_counter() - t0)
+    b.timings["cache_hits"] = float(len(hits))
+    return _serialise(b, reg, params, mates, time.perf_counter() - t0, keys)
 
 
-def _eval_parts(b: _Build, reg: registry.Registry) -> None:
+def _load_cached(b: _Build, keys: dict[str, str], cache_dir: str | None) -> set[str]:
+    """Load the final solids of parts whose key is in the cache; return their names."""
+    if not cache_dir:
+        return set()
+    from build123d import Solid, Compound
+
+    from .. import kernel
+    hits: set[str] = set()
+    for name, key in keys.items():
+        data = cache.load(cache_dir, key)
+        if data is None:
+            continue
+        try:
+            shape = kernel.read_brep(data)
+        except ProceduraError:
+            continue
+        b.solids[name] = Compound(shape) if shape.ShapeType().name == "TopAbs_COMPOUND" else Solid(shape)
+        b.cached_bytes[name] = data  # serialised unchanged: digests stay stable across builds
+        hits.add(name)
+    return hits
+
+
+def _eval_parts(b: _Build, reg: registry.Registry, cached: set[str]) -> None:
     from .. import kernel
     for decl in reg.parts.values():
+        if decl.name in cached:
+            continue
         t = time.perf_counter()
         try:
             solid = _as_solid(decl.fn())
@@ -160,10 +189,8 @@ def _frame(b: _Build, reg: registry.Registry, mname: str, part: str, frame: str)
     return loc_matrix(frames[frame])
 
 
-def _build_mates(b: _Build, reg: registry.Registry, params: dict[str, Any]) -> list[dict[str, Any]]:
-    from build123d import Location
-
-    from ..mates import features
+def _resolve_mates(b: _Build, reg: registry.Registry, params: dict[str, Any]) -> list[dict[str, Any]]:
+    """Validate every mate and resolve its type, options, nominal, fit and frames (no geometry)."""
     out: list[dict[str, Any]] = []
     for decl in reg.mates:
         try:
@@ -190,21 +217,33 @@ def _build_mates(b: _Build, reg: registry.Registry, params: dict[str, Any]) -> l
             continue
         out.append({"decl": decl, "type": mtype, "fit": fit, "options": opts, "d": float(d),
                     "fc": fc, "fp": fp})
-        if decl.child not in b.solids or decl.parent not in b.solids:
+    return out
+
+
+def _apply_features(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]],
+                    cached: set[str]) -> None:
+    """Add each mate's male half to its child and cut its female half from its parent.
+
+    Parts in ``cached`` already hold their final solid (features included) and are skipped.
+    """
+    from ..mates import features
+    for m in mates:
+        decl, mtype = m["decl"], m["type"]
+        todo_child = decl.child in b.solids and decl.child not in cached
+        todo_parent = decl.parent in b.solids and decl.parent not in cached
+        if not (todo_child or todo_parent):
             continue
         t = time.perf_counter()
         try:
-            male, female = features.build(mtype.name, float(d), fit, opts)
-            if male is not None:
+            male, female = features.build(mtype.name, m["d"], m["fit"], m["options"])
+            if male is not None and todo_child:
                 b.solids[decl.child] = b.solids[decl.child] + (reg.frames[decl.child][decl.child_frame] * male)
-            if female is not None:
+            if female is not None and todo_parent:
                 b.solids[decl.parent] = b.solids[decl.parent] - (reg.frames[decl.parent][decl.parent_frame] * female)
         except Exception as exc:  # noqa: BLE001 - OCCT failures become findings
             b.fail("mate-feature", f"mate {decl.name}: building its {mtype.name} features failed: "
                                    f"{_exc_text(exc)}", mate=decl.name, line=decl.line)
         b.timings[f"mate:{decl.name}"] = time.perf_counter() - t
-    _ = Location
-    return out
 
 
 def _place(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]]) -> None:
@@ -255,17 +294,19 @@ def _reads(decl: registry.PartDecl, params: dict[str, Any], reg: registry.Regist
 
 
 def _serialise(b: _Build, reg: registry.Registry, params: dict[str, Any],
-               mates: list[dict[str, Any]], total: float) -> CompiledModel:
+               mates: list[dict[str, Any]], total: float, keys: dict[str, str]) -> CompiledModel:
     from .. import kernel
     parts: list[CompiledPart] = []
     for name, decl in reg.parts.items():
         if name not in b.solids or name not in b.world:
             continue
         frames = {k: loc_matrix(v) for k, v in reg.frames.get(name, {}).items()}
-        parts.append(CompiledPart(name=name, brep=kernel.write_brep(b.solids[name].wrapped),
+        brep = b.cached_bytes.get(name) or kernel.write_brep(b.solids[name].wrapped)
+        parts.append(CompiledPart(name=name, brep=brep,
                                   placement=b.world[name], frames=frames, material=decl.material,
                                   detail=decl.detail, description=decl.description,
-                                  lines=(decl.line, decl.end_line), reads=_reads(decl, params, reg)))
+                                  lines=(decl.line, decl.end_line), reads=_reads(decl, params, reg),
+                                  cache_key=keys.get(name, "")))
     cms: list[CompiledMate] = []
     for m in mates:
         if "world_frame" not in m:

@@ -47,12 +47,18 @@ class CompileOptions:
 
     name: str = "model"
     limits: SandboxLimits = SANDBOX
+    cache: bool = True
 
 
 class Worker:
     """A warm zygote that compiles programs in forked, limited children. Thread-safe."""
 
-    def __init__(self) -> None:
+    def __init__(self, cache_dir: str | os.PathLike[str] | None = None) -> None:
+        """Args:
+            cache_dir: the per-part cache folder (default: a private temp folder per worker).
+        """
+        self._own_cache = cache_dir is None
+        self.cache_dir = str(cache_dir) if cache_dir else tempfile.mkdtemp(prefix="procedura-parts-")
         self._proc: subprocess.Popen[str] | None = None
         self._lock = threading.Lock()
         self._ids = itertools.count(1)
@@ -83,6 +89,9 @@ class Worker:
             self._proc.kill()
             self._proc.wait()
         self._proc = None
+        if self._own_cache:
+            shutil.rmtree(self.cache_dir, ignore_errors=True)
+            os.makedirs(self.cache_dir, exist_ok=True)
 
     def compile(self, source: str, options: CompileOptions = CompileOptions()) -> CompiledModel:
         """Compile ``source`` in a fresh sandboxed child.
@@ -95,7 +104,8 @@ class Worker:
             scratch = tempfile.mkdtemp(prefix="procedura-compile-")
             try:
                 req = {"id": next(self._ids), "source": source, "name": options.name,
-                       "scratch": scratch, "limits": asdict(options.limits)}
+                       "scratch": scratch, "limits": asdict(options.limits),
+                       "cache_dir": self.cache_dir if options.cache else None}
                 assert proc.stdin is not None and proc.stdout is not None
                 try:
                     proc.stdin.write(json.dumps(req) + "\n")
@@ -107,7 +117,11 @@ class Worker:
                     self.close()
                     raise CompileError("the compile worker died; it will be restarted on the next call")
                 reply = json.loads(line)
-                return _result(reply, scratch, options.limits)
+                model = _result(reply, scratch, options.limits)
+                if options.cache and model.ok:
+                    from .cache import store_model
+                    store_model(self.cache_dir, model)
+                return model
             finally:
                 shutil.rmtree(scratch, ignore_errors=True)
 

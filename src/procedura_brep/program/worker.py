@@ -50,7 +50,8 @@ def _child(req: dict[str, Any]) -> None:
     from .model import Finding, to_json
     from .runtime import compile_program
     try:
-        model = compile_program(req["source"], name=req.get("name", "model"))
+        model = compile_program(req["source"], name=req.get("name", "model"),
+                                cache_dir=req.get("cache_dir"))
         payload = to_json(model)
     except MemoryError:
         payload = {"fatal": Finding("memory", "the program ran out of memory (address-space limit "

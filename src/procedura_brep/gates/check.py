@@ -1,0 +1,101 @@
+"""``check_model``: every gate and metric on one compiled model, as a JSON-safe report.
+
+This is what ``procedura-brep check --json`` prints; the fields are documented in docs/gates.md.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..program.model import CompiledModel, Finding
+from .connectivity import analyse, floater_findings
+from .feedback import format_feedback
+from .mate_gate import mate_gate
+from .metrics import mesh_metrics
+from .policy import GateResult, decide, result
+
+#: Version of the report layout below; bump when a field changes meaning.
+REPORT_VERSION: int = 1
+
+
+@dataclass
+class CheckReport:
+    """The result of :func:`check_model`.
+
+    Attributes:
+        model: model name.
+        passed: no error finding in any gate (compile findings included).
+        gates: one :class:`GateResult` per gate, in order compile, mate, connectivity.
+        metrics: :func:`~procedura_brep.gates.metrics.mesh_metrics`.
+        feedback: every finding formatted for the model (empty when clean).
+        timings: seconds per stage.
+    """
+
+    model: str
+    passed: bool
+    gates: list[GateResult]
+    metrics: dict[str, Any]
+    feedback: str = ""
+    timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def findings(self) -> list[Finding]:
+        return [f for g in self.gates for f in g.findings]
+
+    def gate(self, name: str) -> GateResult:
+        for g in self.gates:
+            if g.gate == name:
+                return g
+        raise KeyError(f"no gate named {name!r}; gates: {', '.join(g.gate for g in self.gates)}")
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON-safe report (see docs/gates.md, "check --json")."""
+        mates = self.gate("mate").measured
+        conn = self.gate("connectivity").measured
+        return {
+            "version": REPORT_VERSION,
+            "model": self.model,
+            "passed": self.passed,
+            "n_vis": conn.get("n_vis"),
+            "verdicts": {g.gate: g.passed for g in self.gates},
+            "mates": mates,
+            "connectivity": conn,
+            "metrics": self.metrics,
+            "triangles_per_part": self.metrics.get("triangles_per_part", {}),
+            "findings": [f.as_dict() for f in self.findings],
+            "feedback": self.feedback,
+            "timings": {k: round(v, 4) for k, v in self.timings.items()},
+        }
+
+
+def check_model(model: CompiledModel, source: str | None = None) -> CheckReport:
+    """Run the compile, mate and connectivity gates and the mesh metrics on ``model``.
+
+    Args:
+        model: a compiled model (its own ``findings`` are the compile gate's).
+        source: the program text, used only to add line context to ``feedback``.
+
+    Returns:
+        A :class:`CheckReport`; ``report.as_dict()`` is JSON-serialisable.
+    """
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    compile_res = result("compile", list(model.findings), {"parts": len(model.parts),
+                                                           "mates": len(model.mates)})
+    _, mate_res = mate_gate(model)
+    timings["mate"] = time.perf_counter() - t0
+    t1 = time.perf_counter()
+    conn = analyse(model)
+    cfind = floater_findings(conn)
+    conn_res = result("connectivity", cfind, conn.as_dict())
+    timings["connectivity"] = time.perf_counter() - t1
+    t2 = time.perf_counter()
+    metrics = mesh_metrics(model, conn=conn)
+    timings["metrics"] = time.perf_counter() - t2
+    gates = [compile_res, mate_res, conn_res]
+    findings = [f for g in gates for f in g.findings]
+    timings["total"] = time.perf_counter() - t0
+    return CheckReport(model.name, decide(findings), gates, metrics,
+                       format_feedback(source, findings), timings)

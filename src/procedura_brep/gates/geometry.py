@@ -1,0 +1,249 @@
+"""Per-part geometry the gates share: world mesh, pieces, boxes, edge angles, exact contacts.
+
+Everything here is cached by :attr:`CompiledPart.digest` (the local BRep plus the placement), so
+re-running the gates after the agent adds one part re-tessellates only that part. Contacts between
+two parts are cached by the pair of digests. Lengths are mm.
+
+Only :mod:`procedura_brep.kernel` (raw OCP) is imported, lazily; never build123d.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..config import TOL
+from ..program.model import CompiledPart
+
+log = logging.getLogger(__name__)
+
+#: Two pieces whose exact B-rep distance is at most this touch (connectivity). Larger than
+#: ``TOL.contact_mm`` on purpose: ISO 286 fits leave radial gaps of 5-30 um and a seated child
+#: sits on its parent face at distance 0, so 0.05 mm treats every fit clearance as contact while a
+#: visible gap (0.1 mm and up, what a person sees as "floating") is not. Lead: move to
+#: ``config.Tolerances.connect_mm``.
+CONNECT_MM: float = TOL.connect_mm
+
+#: Entries kept in each per-digest cache (parts, pair distances, mate measurements).
+CACHE_SIZE: int = 4096
+
+Box = tuple[np.ndarray, np.ndarray]
+
+
+class LRU(OrderedDict):
+    """A tiny bounded mapping: the oldest entry goes when ``CACHE_SIZE`` is exceeded."""
+
+    def put(self, key: Any, value: Any) -> Any:
+        self[key] = value
+        self.move_to_end(key)
+        while len(self) > CACHE_SIZE:
+            self.popitem(last=False)
+        return value
+
+
+@dataclass
+class Piece:
+    """One connected piece of a part's welded tessellation (union-find over shared vertices).
+
+    Attributes:
+        part: owning part name.
+        index: piece number within the part.
+        solid: index of the part's B-rep solid this piece belongs to.
+        lo: bbox min corner (3,), world mm.
+        hi: bbox max corner (3,), world mm.
+        volume: signed volume enclosed by the piece's triangles, mm^3 (negative for a void shell).
+        triangles: triangle count.
+    """
+
+    part: str
+    index: int
+    solid: int
+    lo: np.ndarray
+    hi: np.ndarray
+    volume: float
+    triangles: int
+
+    @property
+    def span(self) -> float:
+        return float(np.max(self.hi - self.lo))
+
+
+@dataclass
+class PartGeometry:
+    """Cached world-space geometry of one compiled part."""
+
+    name: str
+    digest: str
+    vertices: np.ndarray
+    faces: np.ndarray
+    labels: np.ndarray
+    pieces: list[Piece]
+    solids: list[Any]
+    solid_boxes: list[Box]
+    lo: np.ndarray
+    hi: np.ndarray
+    _edges: tuple[np.ndarray, np.ndarray] | None = field(default=None, repr=False)
+
+    @property
+    def triangles(self) -> int:
+        return int(len(self.faces))
+
+    def edge_angles(self) -> tuple[np.ndarray, np.ndarray]:
+        """(dihedral angle in degrees, edge length mm) for every interior mesh edge (cached).
+
+        The dihedral here is the angle between the two adjacent face normals: 0 on a flat face,
+        90 on a box edge. Boundary and non-manifold edges are ignored.
+        """
+        if self._edges is None:
+            self._edges = dihedral_edges(self.vertices, self.faces)
+        return self._edges
+
+
+_PARTS: LRU = LRU()
+_DIST: LRU = LRU()
+
+
+def clear_caches() -> None:
+    """Forget every cached tessellation and distance (tests, memory pressure)."""
+    _PARTS.clear()
+    _DIST.clear()
+
+
+def face_components(n_vertices: int, faces: np.ndarray) -> tuple[int, np.ndarray]:
+    """(count, label per face): faces joined where they share a (welded) vertex."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    if len(faces) == 0:
+        return 0, np.zeros(0, dtype=np.int64)
+    m = len(faces)
+    rows = np.repeat(np.arange(m), 3)
+    graph = coo_matrix((np.ones(3 * m), (rows, m + faces.reshape(-1))), shape=(m + n_vertices,) * 2)
+    _, labels = connected_components(graph, directed=False)
+    face_labels = labels[:m]
+    uniq, dense = np.unique(face_labels, return_inverse=True)
+    return int(len(uniq)), dense.reshape(-1)
+
+
+def signed_volume(vertices: np.ndarray, faces: np.ndarray) -> float:
+    """Signed volume enclosed by triangles (divergence theorem), mm^3."""
+    if len(faces) == 0:
+        return 0.0
+    a, b, c = vertices[faces[:, 0]], vertices[faces[:, 1]], vertices[faces[:, 2]]
+    return float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6.0)
+
+
+def dihedral_edges(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(angle deg, length mm) per manifold interior edge of a welded triangle mesh."""
+    if len(faces) < 2:
+        return np.zeros(0), np.zeros(0)
+    e = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    owner = np.repeat(np.arange(len(faces)), 3)
+    order = np.lexsort((e[:, 1], e[:, 0]))
+    e, owner = e[order], owner[order]
+    _, start, count = np.unique(e, axis=0, return_index=True, return_counts=True)
+    two = start[count == 2]
+    fa, fb = owner[two], owner[two + 1]
+    n = np.cross(vertices[faces[:, 1]] - vertices[faces[:, 0]], vertices[faces[:, 2]] - vertices[faces[:, 0]])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    cos = np.clip(np.einsum("ij,ij->i", n[fa], n[fb]), -1.0, 1.0)
+    ends = e[two]
+    length = np.linalg.norm(vertices[ends[:, 0]] - vertices[ends[:, 1]], axis=1)
+    return np.degrees(np.arccos(cos)), length
+
+
+def _solids(shape: Any) -> list[Any]:
+    from OCP.TopAbs import TopAbs_SOLID
+    from OCP.TopExp import TopExp_Explorer
+
+    out = []
+    exp = TopExp_Explorer(shape, TopAbs_SOLID)
+    while exp.More():
+        out.append(exp.Current())
+        exp.Next()
+    return out or [shape]
+
+
+def part_geometry(part: CompiledPart) -> PartGeometry:
+    """The cached :class:`PartGeometry` of ``part`` (tessellated once per digest)."""
+    key = part.digest
+    hit = _PARTS.get(key)
+    if hit is not None and hit.name == part.name:
+        return hit
+    from .. import kernel
+
+    shape = part.shape()
+    mesh = kernel.tessellate(shape)
+    v, f = mesh.vertices, mesh.faces
+    solids = _solids(shape)
+    boxes = [tuple(np.array(c) for c in kernel.bbox(s, optimal=False)) for s in solids]
+    n, labels = face_components(len(v), f)
+    pieces: list[Piece] = []
+    for i in range(n):
+        fi = f[labels == i]
+        pts = v[np.unique(fi)]
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        pieces.append(Piece(part.name, i, _solid_of(lo, hi, boxes), lo, hi,
+                            signed_volume(v, fi), int(len(fi))))
+    if len(v):
+        lo, hi = v.min(axis=0), v.max(axis=0)
+    else:
+        lo = hi = part.placement[:3, 3].astype(float)
+    geo = PartGeometry(part.name, key, v, f, labels, pieces, solids, boxes, lo, hi)
+    log.debug("tessellated %s: %d triangles, %d pieces", part.name, len(f), n)
+    return _PARTS.put(key, geo)
+
+
+def _solid_of(lo: np.ndarray, hi: np.ndarray, boxes: list[Box]) -> int:
+    """The solid whose (loose) bbox best contains the piece box."""
+    if len(boxes) == 1:
+        return 0
+    out = [float(np.maximum(b[0] - lo, 0).sum() + np.maximum(hi - b[1], 0).sum()) for b in boxes]
+    return int(np.argmin(out))
+
+
+def boxes_near(a: Box, b: Box, gap: float) -> bool:
+    """True when two boxes overlap once each is grown by ``gap``."""
+    return bool(np.all(a[0] - gap <= b[1]) and np.all(b[0] - gap <= a[1]))
+
+
+def exact_distance(shape_a: Any, shape_b: Any) -> float:
+    """Minimum distance between two B-rep shapes, mm (BRepExtrema; ~ms to ~70 ms)."""
+    from OCP.BRepExtrema import BRepExtrema_DistShapeShape
+
+    ext = BRepExtrema_DistShapeShape(shape_a, shape_b)
+    if not ext.IsDone():
+        return float("inf")
+    return float(ext.Value())
+
+
+def solid_distance(ga: PartGeometry, ia: int, gb: PartGeometry, ib: int) -> float:
+    """Cached exact distance between solid ``ia`` of ``ga`` and solid ``ib`` of ``gb``."""
+    key = (ga.digest, ia, gb.digest, ib) if ga.digest <= gb.digest else (gb.digest, ib, ga.digest, ia)
+    hit = _DIST.get(key)
+    if hit is None:
+        hit = _DIST.put(key, exact_distance(ga.solids[ia], gb.solids[ib]))
+    return hit
+
+
+def vertices_touch(ga: PartGeometry, gb: PartGeometry, box_a: Box, box_b: Box, gap: float) -> bool:
+    """Cheap positive contact test: some mesh vertex of ``ga`` lies within ``gap`` of one of ``gb``.
+
+    Mesh vertices lie on the exact surfaces, so True proves the solids are within ``gap``; False
+    proves nothing (a small face resting inside a large one shares no vertex with it).
+    Only vertices inside the overlap of the two boxes (grown by ``gap``) are compared.
+    """
+    from scipy.spatial import cKDTree
+
+    lo = np.maximum(box_a[0], box_b[0]) - gap
+    hi = np.minimum(box_a[1], box_b[1]) + gap
+    va = ga.vertices[np.all((ga.vertices >= lo) & (ga.vertices <= hi), axis=1)]
+    vb = gb.vertices[np.all((gb.vertices >= lo) & (gb.vertices <= hi), axis=1)]
+    if not len(va) or not len(vb):
+        return False
+    dist, _ = cKDTree(vb).query(va, k=1, distance_upper_bound=gap)
+    return bool(np.isfinite(dist).any())

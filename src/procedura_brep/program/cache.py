@@ -1,0 +1,119 @@
+"""The per-part compile cache: keys, and a content-addressed store of final part solids.
+
+A part's key hashes everything its final solid depends on: its function's source, the source
+of every program function it calls (transitively), the values of the params those read, and
+for every mate that touches it the mate's type, nominal value, fit, options and this part's
+frame. Editing one part, or adding a part, changes only the keys of that part and of the
+partners whose features change; every other part is loaded from the cache instead of rebuilt.
+
+The store is a folder of ``<key>.brep`` files (OCCT binary BRep). The sandbox child only reads
+it; the parent writes the solids the child returned (:func:`store_model`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+import types
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .registry import Registry
+from .sections import Sections
+
+
+@lru_cache(maxsize=1)
+def _engine_digest() -> str:
+    """Hash of the code that turns a part into its final solid (invalidates on upgrades)."""
+    from .. import __version__
+    h = hashlib.sha256(__version__.encode())
+    here = Path(__file__).resolve().parent.parent / "mates"
+    for name in ("features.py", "fits.py", "vocabulary.py"):
+        h.update((here / name).read_bytes())
+    return h.hexdigest()
+
+
+def _function_lines(source_lines: list[str], code: types.CodeType) -> str:
+    lines = [ln for _, _, ln in code.co_lines() if ln]
+    last = max(lines, default=code.co_firstlineno)
+    return "\n".join(source_lines[code.co_firstlineno - 1:last])
+
+
+def _walk(code: types.CodeType, glb: dict[str, Any], params: dict[str, Any], source_lines: list[str],
+          seen: set[str], out: list[str]) -> None:
+    names = set(code.co_names)
+    for const in code.co_consts:
+        if isinstance(const, types.CodeType):
+            _walk(const, glb, params, source_lines, seen, out)
+    for n in sorted(names):
+        if n in seen:
+            continue
+        seen.add(n)
+        if n in params:
+            out.append(f"param {n}={params[n]!r}")
+            continue
+        obj = glb.get(n)
+        fn_code = getattr(obj, "__code__", None)
+        if isinstance(fn_code, types.CodeType) and fn_code.co_filename == "<program>":
+            out.append(f"fn {n}:\n{_function_lines(source_lines, fn_code)}")
+            _walk(fn_code, glb, params, source_lines, seen, out)
+
+
+def part_keys(source: str, sections: Sections, reg: Registry, params: dict[str, Any],
+              mates: list[dict[str, Any]], glb: dict[str, Any]) -> dict[str, str]:
+    """The cache key of every declared part (see the module docstring)."""
+    lines = source.splitlines()
+    keys: dict[str, str] = {}
+    for name, decl in reg.parts.items():
+        parts = [_engine_digest(), f"part {name}"]
+        code = decl.fn.__code__
+        parts.append(_function_lines(lines, code))
+        _walk(code, glb, params, lines, set(), parts)
+        for m in mates:
+            d = m["decl"]
+            for role, frame in (("child", "fc"), ("parent", "fp")):
+                if getattr(d, role) == name:
+                    parts.append(json.dumps({
+                        "mate": d.name, "role": role, "type": m["type"].name, "d": m["d"],
+                        "fit": m["fit"].as_dict(), "options": m["options"],
+                        "frame": np.round(m[frame], 12).tolist()}, sort_keys=True, default=str))
+        keys[name] = hashlib.sha256("\n".join(parts).encode()).hexdigest()
+    _ = sections
+    return keys
+
+
+def load(cache_dir: str | os.PathLike[str], key: str) -> bytes | None:
+    """The cached BRep for ``key``, or None."""
+    path = Path(cache_dir) / f"{key}.brep"
+    try:
+        return path.read_bytes()
+    except OSError:
+        return None
+
+
+def store(cache_dir: str | os.PathLike[str], key: str, data: bytes) -> None:
+    """Store ``data`` under ``key`` atomically (safe with concurrent writers)."""
+    folder = Path(cache_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    target = folder / f"{key}.brep"
+    if target.exists():
+        return
+    fd, tmp = tempfile.mkstemp(dir=folder, suffix=".tmp")
+    with os.fdopen(fd, "wb") as fh:
+        fh.write(data)
+    os.replace(tmp, target)
+
+
+def store_model(cache_dir: str | os.PathLike[str], model: Any) -> int:
+    """Store every part of a compiled model that carries a key; returns how many were new."""
+    new = 0
+    for p in model.parts:
+        if p.cache_key and load(cache_dir, p.cache_key) is None:
+            store(cache_dir, p.cache_key, p.brep)
+            new += 1
+    return new
