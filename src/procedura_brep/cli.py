@@ -109,7 +109,8 @@ def build(
     no_gates: Annotated[bool, typer.Option("--no-gates", help="Skip the verification gates.")] = False,
 ) -> None:
     """Compile PROGRAM in the sandbox, place its parts and write the run directory."""
-    raise typer.Exit(_do_build(program, out, _formats(formats), gates=not no_gates))
+    source = _read(program)
+    raise typer.Exit(_do_build(program, out, _formats(formats), source=source, gates=not no_gates))
 
 
 @app.command()
@@ -121,36 +122,40 @@ def edit(
                                                                           "here (default: in place).")] = None,
     build_dir: Annotated[Optional[Path], typer.Option("--build", help="Also build the edited "
                                                                       "program into this directory.")] = None,
+    force: Annotated[bool, typer.Option("--force", help="Write the edit even if it breaks a mate "
+                                                        "or a gate.")] = False,
+    no_check: Annotated[bool, typer.Option("--no-check", help="Do not compile the edited program.")] = False,
 ) -> None:
-    """Change named params (only their lines; comments and formatting kept)."""
+    """Change named params (only their lines; comments and formatting kept).
+
+    The edited program is compiled and gated first; an edit that breaks a mate or a gate is
+    reported and not written (unless --force).
+    """
+    from .pipeline import build as run_build
+    from .pipeline import compile_file, program_name, write_atomic
     from .program.edit import parse_assignment, set_params
     source = _read(program)
     values = dict(parse_assignment(s) for s in set_)
     new = set_params(source, values)
     target = output or program
-    code = EXIT_OK
+    problem = None
     if build_dir is not None:
-        code = _do_build(target, build_dir, _formats(None), source=new)
-        if code != EXIT_OK and output is None:
-            _err(f"the edit was not written to {program} because the edited program failed; "
-                 f"pass -o to keep it elsewhere")
-            raise typer.Exit(code)
-    from .pipeline import write_atomic
-    write_atomic(target, new)
-    typer.echo(f"set {', '.join(f'{k}={v}' for k, v in values.items())} -> {target}")
-    raise typer.Exit(code)
-
-
-def _compile(program: Path):
-    """Compile PROGRAM in the sandbox; a program that fails is a usage error (exit 2)."""
-    from .errors import CompileError
-    from .pipeline import compile_file, program_name
-    model = compile_file(_read(program), program_name(program))
-    if not model.ok:
+        res = run_build(target, build_dir, source=new, name=program_name(program))
+        problem = None if res.ok else res.reason
+    elif not no_check:
+        from .gates import check_model
+        model = compile_file(new, program_name(program))
         errs = [f for f in model.findings if f.severity == "error"]
-        raise CompileError(f"{program} does not compile: {errs[0].message}"
-                           + (f" (+{len(errs) - 1} more)" if len(errs) > 1 else ""), errs)
-    return model
+        if not errs:
+            errs = [f for f in check_model(model, new).findings if f.severity == "error"]
+        problem = errs[0].message if errs else None
+    edits = ", ".join(f"{k}={v}" for k, v in values.items())
+    if problem and not force:
+        _err(f"edit {edits} rejected, {target} unchanged: {problem} (--force writes it anyway)")
+        raise typer.Exit(EXIT_FAIL)
+    write_atomic(target, new)
+    typer.echo(f"set {edits} -> {target}" + (f" (with a problem: {problem})" if problem else ""))
+    raise typer.Exit(EXIT_FAIL if problem else EXIT_OK)
 
 
 @app.command()
