@@ -104,3 +104,28 @@ def test_edit_in_place_with_build(tmp_path):
     post = next(p for p in rep["parts"] if p["name"] == "post")
     assert post["bbox_mm"][1][2] == pytest.approx(12 + 100, abs=1e-3)
     assert "post_h = 100.0" in prog.read_text()
+
+
+def test_check_json_and_exit_codes(tmp_path):
+    res = invoke("check", str(LAMP), "--json")
+    assert res.exit_code == 0, res.output
+    data = json.loads(res.output)
+    assert data["passed"] and data["n_vis"] == 0
+    peg = data["mates"]["post_foot"]
+    assert peg["area_mm2"] >= peg["area_limit_mm2"] and peg["penetration_mm"] <= peg["penetration_limit_mm"]
+    # lift the post 0.5 mm off its seat: the mate gate fails on area -> exit 1
+    lifted = tmp_path / "lifted.py"
+    lifted.write_text(LAMP.read_text().replace('foot=Location((0, 0, 0))', 'foot=Location((0, 0, -0.5))'))
+    res = invoke("check", str(lifted))
+    assert res.exit_code == 1 and "FAIL" in res.output
+    res = invoke("check", str(tmp_path / "missing.py"))
+    assert res.exit_code == 2
+
+
+def test_render_cli(tmp_path):
+    res = invoke("render", str(LAMP), "-o", str(tmp_path / "r"), "--views", "iso_ne,front",
+                 "--size", "128", "--sheet", "--mode", "clay")
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "r" / "clay_iso_ne.png").exists() and (tmp_path / "r" / "clay_sheet.png").exists()
+    res = invoke("render", str(LAMP), "-o", str(tmp_path / "r"), "--views", "sideways")
+    assert res.exit_code == 2 and "sideways" in res.output

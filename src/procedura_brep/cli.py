@@ -158,6 +158,18 @@ def edit(
     raise typer.Exit(EXIT_FAIL if problem else EXIT_OK)
 
 
+def _compile(program: Path):
+    """Compile PROGRAM in the sandbox; a program that fails is a usage error (exit 2)."""
+    from .errors import CompileError
+    from .pipeline import compile_file, program_name
+    model = compile_file(_read(program), program_name(program))
+    if not model.ok:
+        errs = [f for f in model.findings if f.severity == "error"]
+        raise CompileError(f"{program} does not compile: {errs[0].message}"
+                           + (f" (+{len(errs) - 1} more)" if len(errs) > 1 else ""), errs)
+    return model
+
+
 @app.command()
 @guarded
 def check(
