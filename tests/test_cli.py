@@ -45,7 +45,7 @@ def test_mates_json_has_every_field(built):
     assert peg["fit"]["iso"] == "H7/k6" and peg["resolved_offset_mm"] == pytest.approx(peg["fit"]["offset"])
     assert peg["dof"]["count"] == 0 and peg["world_frame"]["origin_mm"] == pytest.approx([0, 0, 12])
     assert hinge["dof"] == {"count": 1, "translation": [], "rotation": ["z"]}
-    assert hinge["limits"] == [-60, 60] and hinge["fit"]["iso"] == "H7/g6"
+    assert hinge["limits"] == [-45, 45] and hinge["fit"]["iso"] == "H7/g6"
 
 
 def test_report_json_per_part_and_mate(built):

@@ -84,9 +84,9 @@ def _formats(text: str | None) -> tuple[str, ...]:
 
 
 def _do_build(program: Path, out: Path, formats: tuple[str, ...], source: str | None = None,
-              gates: bool = True) -> int:
+              gates: bool = True, simulate: bool = False) -> int:
     from .pipeline import build
-    res = build(program, out, formats=formats, source=source, gates=gates)
+    res = build(program, out, formats=formats, source=source, gates=gates, simulate=simulate)
     if res.ok:
         n = len(res.model.parts) if res.model else 0
         t = res.report.get("timings", {}).get("total_s", 0.0)
@@ -107,10 +107,83 @@ def build(
     formats: Annotated[Optional[str], typer.Option(help="Comma list of step,obj,glb,usd,urdf,mjcf "
                                                         "(default: all).")] = None,
     no_gates: Annotated[bool, typer.Option("--no-gates", help="Skip the verification gates.")] = False,
+    simulate: Annotated[bool, typer.Option("--simulate", help="Also run the MuJoCo battery and "
+                                                              "record it in report.json.")] = False,
 ) -> None:
     """Compile PROGRAM in the sandbox, place its parts and write the run directory."""
     source = _read(program)
-    raise typer.Exit(_do_build(program, out, _formats(formats), source=source, gates=not no_gates))
+    raise typer.Exit(_do_build(program, out, _formats(formats), source=source, gates=not no_gates,
+                               simulate=simulate))
+
+
+@app.command()
+@guarded
+def export(
+    program: Annotated[Path, typer.Argument(help="The program to export.")],
+    out: Annotated[Path, typer.Option("-o", "--out", help="Directory for the exports.")],
+    formats: Annotated[Optional[str], typer.Option(help="Comma list of step,obj,glb,usd,urdf,mjcf "
+                                                        "(default: all).")] = None,
+) -> None:
+    """Write the export bundle of PROGRAM (no gates, no report)."""
+    from .export.bundle import write_bundle
+    model = _compile(program)
+    files = write_bundle(model, out, formats=_formats(formats))
+    typer.echo(f"wrote {len(files)} files -> {out}")
+    for rel in sorted(files):
+        typer.echo(f"  {rel}")
+
+
+@app.command()
+@guarded
+def simulate(
+    target: Annotated[Path, typer.Argument(help="A run directory (with program.py and its exports) "
+                                                "or a program file.")],
+    json_: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
+    out: Annotated[Optional[Path], typer.Option("-o", "--out", help="Where a program's bundle and "
+                                                                    "failure frames go.")] = None,
+) -> None:
+    """Run the MuJoCo battery B0-B7; exit 1 when any check fails."""
+    import json
+
+    from .sim import run_battery
+    if not target.exists():
+        from .errors import EditError
+        raise EditError(f"{target} does not exist; pass a run directory or a program file")
+    if target.is_dir() and not (target / "program.py").is_file():
+        from .errors import EditError
+        raise EditError(f"{target} has no program.py; build it first or pass a program file")
+    report = run_battery(target, out_dir=out)
+    data = report.as_dict()
+    if json_:
+        typer.echo(json.dumps(data, indent=2, default=str))
+    else:
+        _print_battery(data)
+    raise typer.Exit(EXIT_OK if report.passed else EXIT_FAIL)
+
+
+def _print_battery(data: dict[str, Any]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+    t = Table(title="MuJoCo battery")
+    for col in ("check", "name", "verdict", "measured", "limits", "message"):
+        t.add_column(col, overflow="fold")
+    for c in data["checks"]:
+        verdict = "[yellow]skip[/]" if c.get("skipped") else ("[green]pass[/]" if c["passed"] else "[red]FAIL[/]")
+        meas = ", ".join(f"{k}={_short(v)}" for k, v in (c.get("measured") or {}).items())
+        lim = ", ".join(f"{k}={_short(v)}" for k, v in (c.get("limits") or {}).items())
+        t.add_row(c["id"], c.get("name", ""), verdict, meas, lim, c.get("message", ""))
+    con = Console()
+    con.print(t)
+    for n in data.get("notes", []):
+        con.print(f"note: {n}")
+    con.print("[green]all checks pass[/]" if data["passed"] else "[red]a check failed[/]")
+
+
+def _short(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    text = str(v)
+    return text if len(text) < 60 else text[:57] + "..."
 
 
 @app.command()

@@ -139,16 +139,18 @@ def compile_file(source: str, name: str) -> CompiledModel:
 
 
 def build(program: Path, out_dir: Path, *, formats: tuple[str, ...] | None = ALL_FORMATS,
-          name: str | None = None, gates: bool = True, source: str | None = None) -> BuildResult:
+          name: str | None = None, gates: bool = True, source: str | None = None,
+          simulate: bool = False) -> BuildResult:
     """Compile ``program`` and write the run directory ``out_dir``.
 
     Args:
         program: path of the program file.
         out_dir: the run directory (created).
-        formats: exports to write; ``step`` is always written; None = only the core files.
+        formats: exports to write; ``step`` is always written.
         name: the model name (default from the path).
         gates: run the verification gates and record them in the report.
         source: the program text (default: read ``program``).
+        simulate: also run the MuJoCo battery and record it in ``report.json``.
     """
     t0 = time.perf_counter()
     name = name or program_name(program)
@@ -171,31 +173,34 @@ def build(program: Path, out_dir: Path, *, formats: tuple[str, ...] | None = ALL
     if not model.ok:
         _write_report(result, timings, t0)
         return result
-    fmts = tuple(formats or ())
+    fmts = tuple(dict.fromkeys(("step", *(formats or ()))))
     t = time.perf_counter()
-    from .export.step import step_bytes
-    write_atomic(out_dir / "model.step", step_bytes(model))
-    result.files["step"] = out_dir / "model.step"
-    timings["step_s"] = time.perf_counter() - t
+    from .export.bundle import write_bundle
+    bundle_t: dict[str, float] = {}
+    written = write_bundle(model, out_dir, formats=fmts, timings=bundle_t)
+    result.files.update({rel: path for rel, path in written.items()})
+    timings.update({f"export_{k}_s": v for k, v in bundle_t.items()})
+    timings["export_s"] = time.perf_counter() - t
     evidence = None
-    others = tuple(f for f in fmts if f != "step")
-    if others:
+    if len(fmts) > 1:
         t = time.perf_counter()
-        try:
-            from .export.bundle import mates_evidence, write_bundle
-        except ImportError:  # pragma: no cover - the bundle ships with the package
-            write_bundle = mates_evidence = None  # type: ignore[assignment]
-        if write_bundle is not None:
-            result.files.update(write_bundle(model, out_dir, formats=others))
-            evidence = mates_evidence(model)
-        timings["bundle_s"] = time.perf_counter() - t
+        from .articulation import mates_evidence
+        evidence = mates_evidence(model)
+        timings["evidence_s"] = time.perf_counter() - t
     write_atomic(out_dir / "mates.json", dump_json(mates_json(model, evidence)))
     result.files["mates"] = out_dir / "mates.json"
     if gates:
         t = time.perf_counter()
         result.report["gates"] = run_gates(model, source)
         timings["gates_s"] = time.perf_counter() - t
-    result.status = "ok" if model.ok and result.report.get("gates", {}).get("passed", True) else "gates_failed"
+    if simulate:
+        t = time.perf_counter()
+        from .sim import run_battery
+        result.report["battery"] = run_battery(out_dir, out_dir=out_dir).as_dict()
+        timings["battery_s"] = time.perf_counter() - t
+    passed = (result.report.get("gates", {}).get("passed", True)
+              and result.report.get("battery", {}).get("passed", True))
+    result.status = "ok" if model.ok and passed else "gates_failed"
     _write_report(result, timings, t0)
     return result
 

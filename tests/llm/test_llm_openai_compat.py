@@ -1,12 +1,15 @@
-"""openai: against a fake OpenAI-compatible server on 127.0.0.1."""
+"""openai: through the official SDK against a fake OpenAI-compatible server on 127.0.0.1."""
 
 from __future__ import annotations
 
+import subprocess
+import sys
 import time
 
 import pytest
 
 from procedura_brep.llm import (
+    ConfigError,
     Image,
     MalformedReplyError,
     Message,
@@ -15,10 +18,12 @@ from procedura_brep.llm import (
     Request,
     RetryPolicy,
     Settings,
+    check_provider,
     get_provider,
     preflight,
 )
-from procedura_brep.llm.openai_compat import OpenAIProvider
+from procedura_brep.llm.openai_compat import MISSING_SDK_MESSAGE, NO_KEY_PLACEHOLDER, OpenAIProvider
+from procedura_brep.llm.retry import Retryable
 
 FAST = RetryPolicy(max_retries=2, base_delay_s=0.05, max_delay_s=0.1)
 
@@ -84,7 +89,16 @@ def test_reply_slower_than_timeout(fake_server):
     assert time.monotonic() - start < 2.5
 
 
-@pytest.mark.parametrize("body", [b"<html>not json at all", b'{"choices": []}', b'{"choices": [{"message": {"content": null}}]}'])
+@pytest.mark.parametrize(
+    "body",
+    [
+        b"<html>not json at all",
+        b'{"choices": []}',
+        b'{"choices": [{"message": {"content": null}}]}',
+        b"[1, 2]",
+        b'{"error": {"message": "overloaded"}}',
+    ],
+)
 def test_garbage_body_is_malformed_after_retries(fake_server, body):
     B = fake_server.Behaviour
     fake_server.push(*[B(200, body)] * 3)
@@ -127,3 +141,67 @@ def test_base_url_from_environment(fake_server, monkeypatch):
     monkeypatch.setenv("OPENAI_BASE_URL", fake_server.url)
     p = get_provider("openai:m")
     assert p.endpoint == fake_server.url + "/chat/completions"
+
+
+def test_uses_the_sdk_with_its_retries_off(fake_server):
+    import openai
+
+    p = OpenAIProvider("m", base_url=fake_server.url)
+    assert isinstance(p._client, openai.OpenAI)
+    assert p._client.max_retries == 0  # our bounded loop (llm/retry.py) is in charge
+    p.close()
+
+
+def test_local_server_without_key_gets_placeholder(fake_server, monkeypatch):
+    monkeypatch.delenv("OPENAI_API_KEY", raising=False)
+    fake_server.push(fake_server.Behaviour())
+    assert get_provider("openai:m", base_url=fake_server.url).complete(req()).text == "hello"
+    assert fake_server.headers[0]["authorization"] == f"Bearer {NO_KEY_PLACEHOLDER}"
+
+
+def test_unauthorized_is_not_retried_and_names_the_key(fake_server):
+    fake_server.push(fake_server.Behaviour(401, {"error": {"message": "invalid api key"}}))
+    p = OpenAIProvider("m", base_url=fake_server.url, policy=FAST)
+    with pytest.raises(ProviderError) as info:
+        p.complete(req())
+    msg = str(info.value)
+    assert msg.startswith(fake_server.url + "/chat/completions: HTTP 401: invalid api key")
+    assert "check the API key" in msg and info.value.status == 401 and len(fake_server.requests) == 1
+
+
+def test_connect_timeout_and_transport_errors_are_classified(fake_server):
+    import openai
+
+    p = OpenAIProvider("m", base_url=fake_server.url)
+
+    def sdk_error(cls: type, cause_name: str, text: str) -> Exception:
+        exc = cls.__new__(cls)  # no request object needed to classify
+        exc.__cause__ = type(cause_name, (Exception,), {})(text)
+        return exc
+
+    connect = p._map_error(sdk_error(openai.APITimeoutError, "ConnectTimeout", ""))
+    assert isinstance(connect, Retryable) and connect.kind == "connect" and "unreachable" in connect.message
+    read = p._map_error(sdk_error(openai.APITimeoutError, "ReadTimeout", ""))
+    assert isinstance(read, Retryable) and read.kind == "timeout"
+    dropped = p._map_error(sdk_error(openai.APIConnectionError, "RemoteProtocolError", "Server disconnected"))
+    assert isinstance(dropped, Retryable) and dropped.kind == "server" and "disconnected" in dropped.message
+    assert p._map_error(KeyError("not the SDK's")) is None
+
+
+def test_missing_sdk_is_one_line_config_error(monkeypatch, fake_server):
+    monkeypatch.setitem(sys.modules, "openai", None)  # makes `import openai` raise ImportError
+    with pytest.raises(ConfigError) as info:
+        get_provider("openai:m", base_url=fake_server.url)
+    assert str(info.value) == "openai: the openai SDK is not installed; pip install 'procedura-brep[openai]'"
+    assert str(info.value) == MISSING_SDK_MESSAGE
+    sdk = {c.name: c for c in check_provider("openai:m", fake_server.url)}["SDK"]
+    assert not sdk.ok and sdk.fix == "pip install 'procedura-brep[openai]'"
+
+
+def test_sdk_is_not_imported_at_package_import():
+    code = (
+        "import sys, procedura_brep.llm, procedura_brep.llm.openai_compat\n"
+        "assert 'openai' not in sys.modules, 'openai imported eagerly'\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr

@@ -33,4 +33,4 @@ frames("arm", pivot=Location((7, -7, 0), (-90, 0, 0)))
 
 # === assembly ===
 mate("post.foot", "base.top", "peg_socket", nominal="spigot_d", fit="location")
-mate("arm.pivot", "post.head", "revolute", nominal="pin_d", fit="clearance", limits=(-60, 60))
+mate("arm.pivot", "post.head", "revolute", nominal="pin_d", fit="clearance", limits=(-45, 45))

@@ -21,7 +21,11 @@ from .transcript import read_tape
 
 __all__ = ["Check", "check_provider"]
 
-_SDK = {"anthropic": ("anthropic", "anthropic"), "gemini": ("google.genai", "gemini")}
+_SDK = {
+    "openai": ("openai", "openai"),
+    "anthropic": ("anthropic", "anthropic"),
+    "gemini": ("google.genai", "gemini"),
+}
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,234 @@
+"""Links and joints: static mates fuse parts into rigid links, kinematic mates are the joints.
+
+Frames (all 4x4, millimetres, world coordinates unless named ``_local``):
+
+* the root link's frame is the root part's world placement;
+* every other link's frame is its joint's world frame (origin = anchor, +Z = axis), so the joint
+  axis is +Z in the child link frame and the joint origin is the identity there.
+
+Joint position 0 is the compiled pose; a mate's limits are shifted by its ``home`` value so that
+the exported range is relative to that pose (see :func:`joint_limits`).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from ..errors import ProceduraError
+from ..program.model import CompiledMate, CompiledModel
+
+log = logging.getLogger(__name__)
+
+JointType = Literal["revolute", "continuous", "prismatic", "spherical"]
+
+
+class ArticulationError(ProceduraError, ValueError):
+    """The mate graph is not a tree rooted at the first part (a loop or a part joined to nothing)."""
+
+
+@dataclass
+class Link:
+    """One rigid body: the parts fused by static mates.
+
+    Attributes:
+        name: the link name (its first part in plan order).
+        parts: part names in plan order.
+        frame: 4x4 world frame of the link (mm).
+        parent_joint: name of the joint that moves it (None for the root).
+    """
+
+    name: str
+    parts: list[str]
+    frame: np.ndarray
+    parent_joint: str | None = None
+
+
+@dataclass
+class Joint:
+    """One kinematic mate as a joint between two links.
+
+    Attributes:
+        name: the mate name.
+        type: revolute (limited), continuous (revolute without limits), prismatic, spherical.
+        parent: parent link name.
+        child: child link name.
+        frame: 4x4 world joint frame (mm): origin = anchor, +Z = axis.
+        lower, upper: limits relative to the compiled pose (rad for rotations, m for prismatic);
+            None for continuous; spherical: the cone half-angle in rad as ``upper``.
+        effort: N m or N.
+        velocity: rad/s or m/s.
+        mate: the source mate.
+    """
+
+    name: str
+    type: JointType
+    parent: str
+    child: str
+    frame: np.ndarray
+    lower: float | None
+    upper: float | None
+    effort: float
+    velocity: float
+    mate: CompiledMate = field(repr=False)
+
+    @property
+    def anchor_m(self) -> np.ndarray:
+        """World anchor in metres."""
+        return self.frame[:3, 3] / 1000.0
+
+    @property
+    def axis(self) -> np.ndarray:
+        """World unit axis."""
+        a = self.frame[:3, 2]
+        return a / np.linalg.norm(a)
+
+
+@dataclass
+class Articulation:
+    """Links in tree order (root first), joints in the same order as their child links."""
+
+    name: str
+    links: list[Link]
+    joints: list[Joint]
+    part_link: dict[str, str]
+
+    @property
+    def root(self) -> Link:
+        return self.links[0]
+
+    def link(self, name: str) -> Link:
+        for lk in self.links:
+            if lk.name == name:
+                return lk
+        raise KeyError(f"no link named {name!r}; links: {', '.join(k.name for k in self.links)}")
+
+    def joint(self, name: str) -> Joint:
+        for j in self.joints:
+            if j.name == name:
+                return j
+        raise KeyError(f"no joint named {name!r}; joints: {', '.join(j.name for j in self.joints)}")
+
+    def children(self, link: str) -> list[Joint]:
+        return [j for j in self.joints if j.parent == link]
+
+    def subtree(self, link: str) -> list[str]:
+        """``link`` and every link below it."""
+        out = [link]
+        for j in self.children(link):
+            out.extend(self.subtree(j.child))
+        return out
+
+    def parent_of(self, link: str) -> str | None:
+        lk = self.link(link)
+        return None if lk.parent_joint is None else self.joint(lk.parent_joint).parent
+
+
+def joint_limits(mate: CompiledMate) -> tuple[JointType, float | None, float | None]:
+    """(type, lower, upper) in SI units relative to the compiled (home) pose."""
+    opts = mate.options
+    if mate.type == "spherical":
+        cone = float(opts.get("cone") or 30.0)
+        return "spherical", 0.0, float(np.radians(cone))
+    lim = opts.get("limits")
+    home = float(opts.get("home") or 0.0)
+    if mate.type == "revolute":
+        if lim is None:
+            return "continuous", None, None
+        return "revolute", float(np.radians(lim[0] - home)), float(np.radians(lim[1] - home))
+    if mate.type == "prismatic":
+        if lim is None:
+            raise ArticulationError(
+                f"prismatic mate {mate.name!r} has no limits; give limits=(lo, hi) in mm")
+        return "prismatic", (lim[0] - home) / 1000.0, (lim[1] - home) / 1000.0
+    raise ArticulationError(f"mate {mate.name!r} of type {mate.type!r} is not kinematic")
+
+
+def _groups(model: CompiledModel) -> dict[str, str]:
+    """Union-find over static mates: part name -> link name (first part of its group)."""
+    order = {p.name: i for i, p in enumerate(model.parts)}
+    parent = {p.name: p.name for p in model.parts}
+
+    def find(x: str) -> str:
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    for m in model.mates:
+        if m.kind != "static":
+            continue
+        for end in (m.child, m.parent):
+            if end not in parent:
+                raise ArticulationError(f"mate {m.name!r} names unknown part {end!r}")
+        a, b = find(m.child), find(m.parent)
+        if a != b:
+            keep, drop = (a, b) if order[a] < order[b] else (b, a)
+            parent[drop] = keep
+    return {p: find(p) for p in parent}
+
+
+def articulate(model: CompiledModel) -> Articulation:
+    """Group parts into links, turn kinematic mates into joints, check the tree.
+
+    Raises:
+        ArticulationError: no parts; a kinematic mate joining a link to itself or closing a loop;
+            a part that no mate joins to the root.
+    """
+    if not model.parts:
+        raise ArticulationError("the model has no parts; a program needs at least one part")
+    part_link = _groups(model)
+    root_name = part_link[model.parts[0].name]
+    members: dict[str, list[str]] = {}
+    for p in model.parts:
+        members.setdefault(part_link[p.name], []).append(p.name)
+    kin = [m for m in model.mates if m.kind == "kinematic"]
+    joints_by_child: dict[str, Joint] = {}
+    for m in kin:
+        for end in (m.child, m.parent):
+            if end not in part_link:
+                raise ArticulationError(f"mate {m.name!r} names unknown part {end!r}")
+        c, p = part_link[m.child], part_link[m.parent]
+        if c == p:
+            raise ArticulationError(
+                f"kinematic mate {m.name!r} joins {m.child!r} and {m.parent!r}, which static mates "
+                f"already fuse into link {c!r}: a loop; remove one of the mates")
+        if c == root_name:
+            c, p = p, c  # a joint declared towards the root: flip so the root stays the root
+        if c in joints_by_child:
+            raise ArticulationError(
+                f"link {c!r} has two parent joints ({joints_by_child[c].name!r} and {m.name!r}): "
+                f"a loop; remove one of the mates")
+        jtype, lo, hi = joint_limits(m)
+        joints_by_child[c] = Joint(
+            name=m.name, type=jtype, parent=p, child=c, frame=np.asarray(m.world_frame, float),
+            lower=lo, upper=hi, effort=float(m.options.get("effort") or 10.0),
+            velocity=float(m.options.get("velocity") or 3.0), mate=m)
+    # walk from the root
+    root_frame = np.asarray(model.part(model.parts[0].name).placement, float)
+    links = [Link(root_name, members[root_name], root_frame)]
+    joints: list[Joint] = []
+    seen = {root_name}
+    queue = [root_name]
+    while queue:
+        cur = queue.pop(0)
+        for child, j in joints_by_child.items():
+            if j.parent != cur:
+                continue
+            if child in seen:
+                raise ArticulationError(f"joint {j.name!r} closes a loop at link {child!r}")
+            seen.add(child)
+            links.append(Link(child, members[child], j.frame.copy(), parent_joint=j.name))
+            joints.append(j)
+            queue.append(child)
+    orphans = [n for n in members if n not in seen]
+    if orphans:
+        names = ", ".join(f"{o!r} (parts {', '.join(members[o])})" for o in orphans)
+        raise ArticulationError(
+            f"not joined to the root {root_name!r}: {names}; add a mate from each to a part "
+            f"declared before it")
+    log.debug("articulated %s: %d links, %d joints", model.name, len(links), len(joints))
+    return Articulation(model.name, links, joints, part_link)

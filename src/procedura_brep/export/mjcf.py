@@ -1,0 +1,247 @@
+"""MJCF export built with :class:`mujoco.MjSpec`: the scene the MuJoCo battery runs.
+
+One body per link, nested as the kinematic tree; body frames are the link frames of
+:mod:`procedura_brep.articulation.tree` (so every joint sits at the body origin with axis
+``0 0 1``). SI units, radians, the ``implicitfast`` integrator, a floor plane at the assembly's
+lowest point, explicit inertials from :mod:`procedura_brep.articulation.mass`.
+
+Geoms: the exact visual mesh of every part (group 1, no collisions) and its convex collision
+pieces (group 3). Pairs of links whose collision pieces already overlap in the compiled pose are
+excluded from collisions (MuJoCo collides convex hulls, which fill holes and bores; the exact
+rest-contact check is battery B3).
+
+Actuators: a position servo per limited revolute/prismatic joint and a velocity servo per
+continuous joint. Position gains are scaled from the joint-space inertia so every servo has the
+same natural frequency (:data:`SERVO_HZ`); a velocity servo's gain is at least effort / velocity
+(full effort at stall), since a wheel carries the vehicle's load, not just its own inertia.
+Every actuator's force is limited by the mate's effort. Spherical joints are damped,
+not driven. The root is free when the assembly has wheels (:func:`wheel_joints`), otherwise
+welded to the world.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .. import materials
+from ..articulation.mass import MassProps, link_masses
+from ..articulation.tree import Articulation, articulate
+from ..program.model import CompiledModel
+from .meshes import collision_pieces, part_mesh, stl_bytes, to_local_m
+
+log = logging.getLogger(__name__)
+
+#: Simulation timestep, s.
+TIMESTEP = 0.002
+#: Natural frequency of every position servo, Hz (gain = M_jj * (2 pi f)^2).
+SERVO_HZ = 8.0
+#: Damping ratio of every servo.
+SERVO_ZETA = 1.0
+#: Joint damping on spherical joints, N m s / rad, per kg m^2 of joint-space inertia times omega.
+BALL_DAMPING_ZETA = 1.0
+#: A wheel's axis has at most this |z| component (it rolls on a horizontal floor).
+WHEEL_MAX_AXIS_Z = 0.5
+#: A wheel's radius is at least this many times its width along the axis.
+WHEEL_DISC_RATIO = 0.5
+#: Mesh directory of ``model.xml`` relative to the bundle root (shared with the URDF).
+MESHDIR = "urdf/meshes"
+
+
+@dataclass
+class MjcfBuild:
+    """A built scene: the spec, its mesh assets and facts the battery needs.
+
+    Attributes:
+        spec: the MjSpec (compile with ``spec.compile()``; assets already attached).
+        assets: ``{mesh file name: STL bytes}``.
+        free_root: whether the root link has a free joint.
+        wheels: names of the wheel joints.
+        floor_z: floor height, m (world).
+        excluded: link pairs excluded from collision because their hulls overlap at rest.
+    """
+
+    spec: object
+    assets: dict[str, bytes]
+    free_root: bool
+    wheels: list[str]
+    floor_z: float
+    excluded: list[tuple[str, str]] = field(default_factory=list)
+
+
+def quat(r: np.ndarray) -> list[float]:
+    """MuJoCo quaternion (w, x, y, z) of a rotation matrix."""
+    from scipy.spatial.transform import Rotation
+    x, y, z, w = Rotation.from_matrix(r).as_quat()
+    return [float(w), float(x), float(y), float(z)]
+
+
+def lowest_z(model: CompiledModel, parts: list[str]) -> float:
+    """Lowest world z of the given parts' meshes, mm."""
+    return float(min(part_mesh(model.part(n)).vertices[:, 2].min() for n in parts))
+
+
+def wheel_joints(model: CompiledModel, art: Articulation) -> list[str]:
+    """Continuous joints with a horizontal axis whose child subtree is disc-like (its radius about
+    the axis is at least :data:`WHEEL_DISC_RATIO` times its length along it). Whether the wheels
+    reach the ground is for battery B4 to find out, not for this test."""
+    out = []
+    for j in art.joints:
+        if j.type != "continuous" or abs(float(j.axis[2])) > WHEEL_MAX_AXIS_Z:
+            continue
+        parts = [p for lk in art.subtree(j.child) for p in art.link(lk).parts]
+        v = np.vstack([part_mesh(model.part(n)).vertices for n in parts]) - j.frame[:3, 3]
+        along = v @ j.axis
+        radial = np.linalg.norm(v - np.outer(along, j.axis), axis=1)
+        if radial.max() >= WHEEL_DISC_RATIO * (along.max() - along.min()):
+            out.append(j.name)
+    return out
+
+
+def _geoms(spec, body, model: CompiledModel, name: str, frame: np.ndarray,
+           assets: dict[str, bytes]) -> None:
+    import mujoco
+    part = model.part(name)
+    mat = materials.get(part.material)
+    fname = f"{name}.stl"
+    assets[fname] = stl_bytes(to_local_m(part_mesh(part), frame))
+    spec.add_mesh(name=name, file=fname)
+    g = body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=name,
+                      contype=0, conaffinity=0, group=1, rgba=[*mat.rgb, 1.0])
+    g.mass = 0
+    for k, piece in enumerate(collision_pieces(part)):
+        stem = f"{name}__c{k}"
+        assets[f"{stem}.stl"] = stl_bytes(to_local_m(piece, frame))
+        spec.add_mesh(name=stem, file=f"{stem}.stl")
+        c = body.add_geom(name=stem, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=stem, group=3,
+                          rgba=[*mat.rgb, 0.0])
+        c.mass = 0
+
+
+def _inertial(body, mp: MassProps) -> None:
+    w, v = mp.principal()
+    body.explicitinertial = True
+    body.mass = float(mp.mass)
+    body.ipos = [float(x) for x in mp.com]
+    body.iquat = quat(v)
+    body.inertia = [float(x) for x in w]
+
+
+def _build(model: CompiledModel, art: Articulation, masses: dict[str, MassProps],
+           free_root: bool, wheels: list[str], floor_z: float,
+           gains: dict[str, float] | None, excluded: list[tuple[str, str]]) -> MjcfBuild:
+    import mujoco
+    spec = mujoco.MjSpec()
+    spec.modelname = model.name
+    spec.compiler.degree = False
+    spec.compiler.autolimits = True
+    spec.compiler.balanceinertia = True
+    spec.meshdir = MESHDIR
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
+    spec.option.timestep = TIMESTEP
+    spec.worldbody.add_light(name="sun", pos=[0, 0, 5], dir=[0, 0, -1])
+    spec.worldbody.add_geom(name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05],
+                            pos=[0, 0, floor_z], rgba=[0.8, 0.8, 0.8, 1])
+    assets: dict[str, bytes] = {}
+    bodies = {}
+    for lk in art.links:
+        if lk.parent_joint is None:
+            parent_body, parent_frame = spec.worldbody, np.eye(4)
+        else:
+            pj = art.joint(lk.parent_joint)
+            parent_body, parent_frame = bodies[pj.parent], art.link(pj.parent).frame
+        rel = np.linalg.inv(parent_frame) @ lk.frame
+        body = parent_body.add_body(name=lk.name, pos=[float(x) for x in rel[:3, 3] / 1000.0],
+                                    quat=quat(rel[:3, :3]))
+        bodies[lk.name] = body
+        _inertial(body, masses[lk.name])
+        if lk.parent_joint is None and free_root:
+            body.add_freejoint(name=f"{lk.name}__free")
+        for name in lk.parts:
+            _geoms(spec, body, model, name, lk.frame, assets)
+        if lk.parent_joint is None:
+            continue
+        j = art.joint(lk.parent_joint)
+        kp = (gains or {}).get(j.name, 1.0)
+        if j.type == "spherical":
+            jt = body.add_joint(name=j.name, type=mujoco.mjtJoint.mjJNT_BALL,
+                                range=[0.0, float(j.upper)], limited=mujoco.mjtLimited.mjLIMITED_TRUE)
+            jt.damping = float(kp)
+            continue
+        jtype = mujoco.mjtJoint.mjJNT_SLIDE if j.type == "prismatic" else mujoco.mjtJoint.mjJNT_HINGE
+        jt = body.add_joint(name=j.name, type=jtype, axis=[0, 0, 1], pos=[0, 0, 0])
+        if j.type == "continuous":
+            jt.limited = mujoco.mjtLimited.mjLIMITED_FALSE
+            act = spec.add_actuator(name=j.name, target=j.name,
+                                    trntype=mujoco.mjtTrn.mjTRN_JOINT)
+            act.set_to_velocity(kv=float(kp))
+            act.ctrlrange = [-j.velocity, j.velocity]
+        else:
+            jt.limited = mujoco.mjtLimited.mjLIMITED_TRUE
+            jt.range = [float(j.lower), float(j.upper)]
+            act = spec.add_actuator(name=j.name, target=j.name,
+                                    trntype=mujoco.mjtTrn.mjTRN_JOINT)
+            omega = 2 * np.pi * SERVO_HZ
+            m_jj = kp  # gains hold M_jj for position servos
+            act.set_to_position(kp=float(m_jj * omega**2), kv=float(2 * SERVO_ZETA * m_jj * omega))
+            act.ctrlrange = [float(j.lower), float(j.upper)]
+        act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        act.forcerange = [-j.effort, j.effort]
+    for a, b in excluded:
+        spec.add_exclude(bodyname1=a, bodyname2=b)
+    spec.assets = dict(assets)
+    return MjcfBuild(spec, assets, free_root, wheels, floor_z, list(excluded))
+
+
+def build_mjcf(model: CompiledModel, *, art: Articulation | None = None,
+               masses: dict[str, MassProps] | None = None,
+               free_root: bool | None = None) -> MjcfBuild:
+    """The scene for ``model``: a first compile measures joint-space inertia (for servo gains) and
+    hull overlaps at rest (for collision excludes); the second is the result."""
+    import mujoco
+    art = art or articulate(model)
+    masses = masses or link_masses(model, art)
+    wheels = wheel_joints(model, art)
+    free = bool(wheels) if free_root is None else free_root
+    floor_z = lowest_z(model, [p.name for p in model.parts]) / 1000.0
+    first = _build(model, art, masses, free, wheels, floor_z, None, [])
+    m = first.spec.compile()
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    mass_matrix = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, mass_matrix)
+    omega = 2 * np.pi * SERVO_HZ
+    gains: dict[str, float] = {}
+    for j in art.joints:
+        jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j.name)
+        dof = int(m.jnt_dofadr[jid])
+        mjj = float(mass_matrix[dof, dof])
+        if j.type == "continuous":  # velocity servo: stall torque = effort at full speed
+            gains[j.name] = max(2 * SERVO_ZETA * mjj * omega, j.effort / max(j.velocity, 1e-9))
+        elif j.type == "spherical":
+            gains[j.name] = 2 * BALL_DAMPING_ZETA * mjj * omega
+        else:
+            gains[j.name] = mjj
+    excluded: set[tuple[str, str]] = set()
+    for c in d.contact[: d.ncon]:
+        b1, b2 = int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2])
+        if b1 == 0 or b2 == 0 or b1 == b2:
+            continue
+        n1, n2 = m.body(b1).name, m.body(b2).name
+        excluded.add(tuple(sorted((n1, n2))))  # type: ignore[arg-type]
+    if excluded:
+        log.info("excluding hull contacts at rest: %s", sorted(excluded))
+    return _build(model, art, masses, free, wheels, floor_z, gains, sorted(excluded))
+
+
+def mjcf_files(model: CompiledModel, *, art: Articulation | None = None,
+               masses: dict[str, MassProps] | None = None) -> dict[str, bytes]:
+    """``{"model.xml": bytes}`` plus the meshes under :data:`MESHDIR` it references."""
+    b = build_mjcf(model, art=art, masses=masses)
+    b.spec.compile()
+    out = {"model.xml": b.spec.to_xml().encode()}
+    for name, data in b.assets.items():
+        out[f"{MESHDIR}/{name}"] = data
+    return out

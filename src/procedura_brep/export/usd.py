@@ -1,0 +1,179 @@
+"""OpenUSD export (``model.usda``): UsdPhysics articulation, Z-up, metres, kilograms.
+
+Layout (flat links, as UsdPhysics expects for articulations)::
+
+    /<model>                      Xform, default prim, PhysicsArticulationRootAPI
+      /Looks/<material>           UsdPreviewSurface per material used
+      /<link>                     Xform at the link's world frame, RigidBodyAPI + MassAPI
+        /<part>                   Mesh (exact visual, link-local), bound to its material
+        /<part>__collision        Xform holding convex pieces (CollisionAPI + MeshCollisionAPI)
+      /joints/<mate>              RevoluteJoint / PrismaticJoint / SphericalJoint
+
+USD joint axes can only be X, Y or Z, so each joint frame is the mate frame rotated so that its
++X is the mate's +Z (``localRot0/1``, :data:`Z_TO_X`); the axis is ``"X"``. Revolute limits are
+in degrees, prismatic in metres; every driven joint has a DriveAPI (angular or linear).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import materials
+from ..articulation.mass import MassProps, link_masses
+from ..articulation.tree import Articulation, articulate
+from ..program.model import CompiledModel
+from .meshes import collision_pieces, part_mesh, to_local_m
+
+#: Rotation taking the joint's X axis onto the mate frame's Z axis (R_y(-90 deg)).
+Z_TO_X = np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])
+#: Drive stiffness/damping written for position drives (per unit of effort).
+DRIVE_STIFFNESS_PER_EFFORT = 10.0
+DRIVE_DAMPING_PER_EFFORT = 1.0
+
+
+def _quatf(r: np.ndarray):
+    from pxr import Gf
+    from scipy.spatial.transform import Rotation
+    x, y, z, w = Rotation.from_matrix(r).as_quat()
+    return Gf.Quatf(float(w), Gf.Vec3f(float(x), float(y), float(z)))
+
+
+def _matrix(m_mm: np.ndarray):
+    from pxr import Gf
+    m = np.array(m_mm, dtype=float)
+    m[:3, 3] /= 1000.0
+    return Gf.Matrix4d(m.T.tolist())  # USD matrices are row-vector (transposed)
+
+
+def _mesh(stage, path: str, mesh):
+    from pxr import UsdGeom, Vt
+    prim = UsdGeom.Mesh.Define(stage, path)
+    prim.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(mesh.vertices.astype(np.float32)))
+    prim.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(mesh.faces), 3, np.int32)))
+    prim.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(mesh.faces.reshape(-1).astype(np.int32)))
+    prim.CreateSubdivisionSchemeAttr("none")
+    return prim
+
+
+def _material(stage, root: str, name: str):
+    from pxr import Gf, Sdf, UsdShade
+    m = materials.get(name)
+    mat = UsdShade.Material.Define(stage, f"{root}/Looks/{name}")
+    sh = UsdShade.Shader.Define(stage, f"{root}/Looks/{name}/PreviewSurface")
+    sh.CreateIdAttr("UsdPreviewSurface")
+    sh.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*m.rgb))
+    sh.CreateInput("metallic", Sdf.ValueTypeNames.Float).Set(float(m.metalness))
+    sh.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(float(m.roughness))
+    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), "surface")
+    return mat
+
+
+def usd_stage(model: CompiledModel, *, art: Articulation | None = None,
+              masses: dict[str, MassProps] | None = None):
+    """An in-memory Usd.Stage of the articulated model."""
+    from pxr import Gf, Usd, UsdGeom, UsdPhysics, UsdShade
+    art = art or articulate(model)
+    masses = masses or link_masses(model, art)
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdPhysics.SetStageKilogramsPerUnit(stage, 1.0)
+    root = f"/{model.name}"
+    top = UsdGeom.Xform.Define(stage, root)
+    stage.SetDefaultPrim(top.GetPrim())
+    UsdPhysics.Scene.Define(stage, f"{root}/physicsScene")
+    UsdPhysics.ArticulationRootAPI.Apply(top.GetPrim())
+    mats = {n: _material(stage, root, n) for n in sorted({p.material for p in model.parts})}
+    for lk in art.links:
+        path = f"{root}/{lk.name}"
+        x = UsdGeom.Xform.Define(stage, path)
+        x.AddTransformOp().Set(_matrix(lk.frame))
+        UsdPhysics.RigidBodyAPI.Apply(x.GetPrim())
+        mp = masses[lk.name]
+        mapi = UsdPhysics.MassAPI.Apply(x.GetPrim())
+        w, v = mp.principal()
+        mapi.CreateMassAttr(float(mp.mass))
+        mapi.CreateCenterOfMassAttr(Gf.Vec3f(*[float(c) for c in mp.com]))
+        mapi.CreateDiagonalInertiaAttr(Gf.Vec3f(*[float(c) for c in w]))
+        mapi.CreatePrincipalAxesAttr(_quatf(v))
+        for name in lk.parts:
+            part = model.part(name)
+            vis = _mesh(stage, f"{path}/{name}", to_local_m(part_mesh(part), lk.frame))
+            UsdShade.MaterialBindingAPI.Apply(vis.GetPrim()).Bind(mats[part.material])
+            col_root = UsdGeom.Xform.Define(stage, f"{path}/{name}__collision")
+            for k, piece in enumerate(collision_pieces(part)):
+                c = _mesh(stage, f"{col_root.GetPath()}/c{k}", to_local_m(piece, lk.frame))
+                c.CreatePurposeAttr(UsdGeom.Tokens.guide)
+                UsdPhysics.CollisionAPI.Apply(c.GetPrim())
+                UsdPhysics.MeshCollisionAPI.Apply(c.GetPrim()).CreateApproximationAttr("convexHull")
+    UsdGeom.Scope.Define(stage, f"{root}/joints")
+    for j in art.joints:
+        jpath = f"{root}/joints/{j.name}"
+        if j.type == "spherical":
+            jp = UsdPhysics.SphericalJoint.Define(stage, jpath)
+            jp.CreateAxisAttr("X")
+            cone = float(np.degrees(j.upper))
+            jp.CreateConeAngle0LimitAttr(cone)
+            jp.CreateConeAngle1LimitAttr(cone)
+        elif j.type == "prismatic":
+            jp = UsdPhysics.PrismaticJoint.Define(stage, jpath)
+            jp.CreateAxisAttr("X")
+            jp.CreateLowerLimitAttr(float(j.lower))
+            jp.CreateUpperLimitAttr(float(j.upper))
+        else:
+            jp = UsdPhysics.RevoluteJoint.Define(stage, jpath)
+            jp.CreateAxisAttr("X")
+            if j.type == "revolute":
+                jp.CreateLowerLimitAttr(float(np.degrees(j.lower)))
+                jp.CreateUpperLimitAttr(float(np.degrees(j.upper)))
+        jp.CreateBody0Rel().SetTargets([f"{root}/{j.parent}"])
+        jp.CreateBody1Rel().SetTargets([f"{root}/{j.child}"])
+        for body, setpos, setrot in ((j.parent, jp.CreateLocalPos0Attr, jp.CreateLocalRot0Attr),
+                                     (j.child, jp.CreateLocalPos1Attr, jp.CreateLocalRot1Attr)):
+            local = np.linalg.inv(art.link(body).frame) @ j.frame
+            setpos(Gf.Vec3f(*[float(c) for c in local[:3, 3] / 1000.0]))
+            setrot(_quatf(local[:3, :3] @ Z_TO_X))
+        if j.type != "spherical":
+            kind = "linear" if j.type == "prismatic" else "angular"
+            drive = UsdPhysics.DriveAPI.Apply(jp.GetPrim(), kind)
+            drive.CreateTypeAttr("force")
+            drive.CreateMaxForceAttr(float(j.effort))
+            if j.type == "continuous":
+                drive.CreateDampingAttr(float(j.effort * DRIVE_DAMPING_PER_EFFORT))
+                drive.CreateTargetVelocityAttr(0.0)
+            else:
+                drive.CreateStiffnessAttr(float(j.effort * DRIVE_STIFFNESS_PER_EFFORT))
+                drive.CreateDampingAttr(float(j.effort * DRIVE_DAMPING_PER_EFFORT))
+                drive.CreateTargetPositionAttr(0.0)
+    return stage
+
+
+def usda_text(model: CompiledModel, *, art: Articulation | None = None,
+              masses: dict[str, MassProps] | None = None) -> str:
+    """``model.usda`` as text."""
+    stage = usd_stage(model, art=art, masses=masses)  # keep alive: the layer is a weak pointer
+    return stage.GetRootLayer().ExportToString()
+
+
+def usd_joint_frames(stage) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """``{joint name: (world anchor m, world unit axis)}`` read back from a stage (via body0)."""
+    from pxr import Usd, UsdGeom, UsdPhysics
+    out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    cache = UsdGeom.XformCache(Usd.TimeCode.Default())
+    for prim in stage.Traverse():
+        if not prim.IsA(UsdPhysics.Joint):
+            continue
+        j = UsdPhysics.Joint(prim)
+        body0 = stage.GetPrimAtPath(j.GetBody0Rel().GetTargets()[0])
+        world = np.array(cache.GetLocalToWorldTransform(body0)).T  # column-vector convention
+        pos = np.array(j.GetLocalPos0Attr().Get(), dtype=float)
+        q = j.GetLocalRot0Attr().Get()
+        from scipy.spatial.transform import Rotation
+        im = q.GetImaginary()
+        r = Rotation.from_quat([im[0], im[1], im[2], q.GetReal()]).as_matrix()
+        axis_name = prim.GetAttribute("physics:axis").Get() if prim.HasAttribute("physics:axis") else "X"
+        local_axis = r[:, "XYZ".index(axis_name)]
+        anchor = world[:3, :3] @ pos + world[:3, 3]
+        axis = world[:3, :3] @ local_axis
+        out[prim.GetName()] = (anchor, axis / np.linalg.norm(axis))
+    return out

@@ -1,0 +1,179 @@
+"""The MuJoCo battery B0-B7 (DESIGN.md section 7) over one exported bundle.
+
+``run_battery(source)`` takes a :class:`CompiledModel` (the bundle is written first, to
+``out_dir`` or a temporary directory) or a bundle directory holding ``program.py`` (compiled
+again, so the mate graph is the reference) and the exported files, which are what gets checked.
+
+B0 model fidelity (``model.xml``) · B1 settle (``model.xml``) · B2 joint sweeps (root welded,
+gravity off; exact-mesh penetration at the reached extremes) · B3 rest-contact scan on exact
+solids · B4 wheeled mobility · B5 URDF re-import · B6 USD validation · B7 random-control smoke run.
+A failed check saves up to 8 frames of its phase under ``renders/sim/``.
+"""
+
+from __future__ import annotations
+
+import logging
+import tempfile
+import time
+from collections.abc import Callable, Iterable
+from pathlib import Path
+
+import numpy as np
+
+from ..articulation import articulate, link_masses
+from ..program.model import CompiledModel
+from . import contact
+from .dynamics import SEPARATION_M, SWEEP_REACH, check_b1, check_b4, check_b7, sweep_joint
+from .fidelity import check_b0, check_b5, check_b6
+from .frames import render_frames
+from .report import BatteryReport, CheckResult
+
+log = logging.getLogger(__name__)
+
+ALL_CHECKS: tuple[str, ...] = ("B0", "B1", "B2", "B3", "B4", "B5", "B6", "B7")
+
+
+def _load(source: CompiledModel | str | Path, out_dir: Path | None
+          ) -> tuple[CompiledModel, Path, bool]:
+    if isinstance(source, CompiledModel):
+        from ..export.bundle import write_bundle
+        root = out_dir or Path(tempfile.mkdtemp(prefix="procedura-battery-"))
+        write_bundle(source, root, formats=("urdf", "usd", "mjcf"))
+        return source, root, True
+    path = Path(source)
+    if path.is_file():  # a program file: compile, export next to out_dir
+        from ..program import compile_source
+        model = compile_source(path.read_text(), name=path.parent.name if path.name == "program.py" else path.stem)
+        return _load(model, out_dir)
+    program = path / "program.py"
+    if not program.exists():
+        raise FileNotFoundError(f"{path} has no program.py; pass a bundle directory written by "
+                                f"`procedura-brep build` or a program file")
+    from ..program import compile_source
+    model = compile_source(program.read_text(), name=path.name)
+    if not (path / "model.xml").exists():
+        from ..export.bundle import write_bundle
+        write_bundle(model, path, formats=("urdf", "usd", "mjcf"))
+    return model, path, False
+
+
+def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray]]:
+    """B2: every driven joint reaches >= 97% of its range, adds no exact-mesh penetration deeper
+    than :data:`contact.PENETRATION_TOL_MM`, and its child never leaves its parent by > 3 mm."""
+    import mujoco
+    m.opt.gravity[:] = 0.0  # the sweep tests range and collisions; gravity is B1's business
+    floor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
+    m.geom_contype[floor] = m.geom_conaffinity[floor] = 0  # the root is welded: no floor
+    rows, problems, worst_traj = {}, [], []
+    worst_reach, worst_pen, worst_sep = 1.0, 0.0, 0.0
+    for j in art.joints:
+        if j.type == "spherical":
+            rows[j.name] = {"skipped": "spherical joints are not driven"}
+            continue
+        r = sweep_joint(m, art, j.name)
+        pen, pen_pair = 0.0, None
+        if j.type != "continuous":
+            rest = contact.moved_overlaps(model, art, j, 0.0)
+            for q in (r["qmin"], r["qmax"]):
+                for key, o in contact.moved_overlaps(model, art, j, q).items():
+                    new = o.depth - rest[key].depth
+                    if new > pen:
+                        pen, pen_pair = new, key
+        rows[j.name] = {"reach": r["reach"], "qmin": r["qmin"], "qmax": r["qmax"],
+                        "new_penetration_mm": pen, "separation_m": r["separation_m"]}
+        bad = False
+        if r["reach"] < SWEEP_REACH:
+            problems.append(f"joint {j.name!r} reached {100 * r['reach']:.1f}% of its range "
+                            f"(needs {100 * SWEEP_REACH:.0f}%)")
+            bad = True
+        if pen > contact.PENETRATION_TOL_MM:
+            problems.append(f"joint {j.name!r} drives {pen_pair[0]!r} {pen:.3g} mm into "
+                            f"{pen_pair[1]!r} (limit {contact.PENETRATION_TOL_MM} mm)")
+            bad = True
+        if r["separation_m"] > SEPARATION_M:
+            problems.append(f"joint {j.name!r}: child separates {r['separation_m']:.3g} m from parent")
+            bad = True
+        if r["warnings"]:
+            problems.append(f"joint {j.name!r}: MuJoCo warnings {r['warnings']}")
+            bad = True
+        if bad and not worst_traj:
+            worst_traj = r["traj"]
+        worst_reach = min(worst_reach, r["reach"])
+        worst_pen = max(worst_pen, pen)
+        worst_sep = max(worst_sep, r["separation_m"])
+    measured = {"min_reach": worst_reach, "max_new_penetration_mm": worst_pen,
+                "max_separation_m": worst_sep, "joints": rows}
+    limits = {"min_reach": SWEEP_REACH, "max_new_penetration_mm": contact.PENETRATION_TOL_MM,
+              "max_separation_m": SEPARATION_M}
+    return CheckResult("B2", "joint sweeps", not problems, measured, limits,
+                       "; ".join(problems) or f"{len(rows)} joints swept"), worst_traj
+
+
+def check_b3(model: CompiledModel, art) -> CheckResult:
+    """B3: no two non-adjacent links interpenetrate at rest (exact solids)."""
+    overlaps = contact.rest_overlaps(model, art)
+    deep = [o for o in overlaps if o.depth > contact.PENETRATION_TOL_MM]
+    worst = max(overlaps, key=lambda o: o.depth, default=None)
+    measured = {"max_depth_mm": worst.depth if worst else 0.0,
+                "pairs": [{"a": o.a, "b": o.b, "volume_mm3": o.volume, "depth_mm": o.depth}
+                          for o in overlaps]}
+    msg = "; ".join(f"parts {o.a!r} (link {art.part_link[o.a]!r}) and {o.b!r} (link "
+                    f"{art.part_link[o.b]!r}) interpenetrate {o.depth:.3g} mm" for o in deep)
+    return CheckResult("B3", "rest-contact scan", not deep, measured,
+                       {"max_depth_mm": contact.PENETRATION_TOL_MM},
+                       msg or "no non-adjacent links interpenetrate at rest")
+
+
+def run_battery(source: CompiledModel | str | Path, *, out_dir: str | Path | None = None,
+                checks: Iterable[str] | None = None, frames: bool = True) -> BatteryReport:
+    """Run the battery; never raises for a failing model (each check reports instead).
+
+    Args:
+        source: a CompiledModel, a bundle directory with ``program.py``, or a program file.
+        out_dir: where a CompiledModel's bundle and failure frames go (default: a temp dir,
+            or the bundle directory itself).
+        checks: the ids to run (default all).
+        frames: save up to 8 frames of a failing phase.
+    """
+    import mujoco
+    from ..export.mjcf import build_mjcf, wheel_joints
+    from ..export.urdf import ROBOT_FILES  # noqa: F401  (import check)
+    wanted = tuple(c for c in ALL_CHECKS if checks is None or c in set(checks))
+    model, root, _ = _load(source, Path(out_dir) if out_dir else None)
+    art = articulate(model)
+    masses = link_masses(model, art)
+    report = BatteryReport([])
+    m_file = mujoco.MjModel.from_xml_path(str(root / "model.xml"))
+
+    def run(cid: str, fn: Callable[[], CheckResult | tuple[CheckResult, list]], mj=None) -> None:
+        if cid not in wanted:
+            return
+        t = time.perf_counter()
+        try:
+            out = fn()
+        except Exception as exc:  # a broken export is a failed check, not a crash
+            log.exception("battery check %s crashed", cid)
+            out = CheckResult(cid, cid, False, message=f"{type(exc).__name__}: {exc}")
+        res, traj = (out if isinstance(out, tuple) else (out, []))
+        res.seconds = time.perf_counter() - t
+        if not res.passed and frames and traj and mj is not None:
+            res.frames = render_frames(mj, traj, root, f"{cid}")
+            if not res.frames:
+                report.notes.append(f"{cid}: frames could not be rendered (no GL context)")
+        report.checks.append(res)
+        report.timings[cid] = res.seconds
+
+    run("B0", lambda: check_b0(art, m_file))
+    run("B1", lambda: check_b1(m_file, art), m_file)
+    welded = None
+    if "B2" in wanted:
+        welded = build_mjcf(model, art=art, masses=masses, free_root=False).spec.compile()
+    run("B2", lambda: check_b2(model, art, welded), welded)
+    run("B3", lambda: check_b3(model, art))
+    wheels = wheel_joints(model, art)
+    floor_z = float(m_file.geom("floor").pos[2])
+    run("B4", lambda: check_b4(m_file, art, wheels, floor_z), m_file)
+    run("B5", lambda: check_b5(art, masses, root / "urdf"))
+    run("B6", lambda: check_b6(art, root / "model.usda"))
+    run("B7", lambda: check_b7(m_file), m_file)
+    return report

@@ -1,0 +1,75 @@
+"""Links, joints, tree errors, mass properties and geometric evidence."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from procedura_brep import materials
+from procedura_brep.articulation import ArticulationError, articulate, link_masses, mates_evidence
+from procedura_brep.program.model import CompiledModel
+
+from .models import compile_lamp, mate, part
+
+
+@pytest.fixture(scope="module")
+def lamp(worker):
+    return compile_lamp(worker)
+
+
+@pytest.fixture(scope="module")
+def blocks():
+    import build123d as bd
+    a = bd.Box(30, 20, 10, align=(bd.Align.CENTER, bd.Align.CENTER, bd.Align.MAX))
+    b = bd.Box(20, 20, 10, align=(bd.Align.CENTER, bd.Align.CENTER, bd.Align.MIN))
+    c = bd.Box(10, 10, 10).moved(bd.Location((100, 0, 0)))
+    return part("a", a), part("b", b, material="aluminium"), part("c", c)
+
+
+def test_lamp_links_and_joint(lamp):
+    art = articulate(lamp)
+    assert [(lk.name, lk.parts) for lk in art.links] == [("base", ["base", "post"]), ("arm", ["arm"])]
+    (j,) = art.joints
+    assert (j.name, j.type, j.parent, j.child) == ("arm_pivot", "revolute", "base", "arm")
+    assert j.lower == pytest.approx(np.radians(-45)) and j.upper == pytest.approx(np.radians(45))
+    np.testing.assert_allclose(art.link("arm").frame, lamp.mates[1].world_frame)
+
+
+def test_orphan_and_loop_are_errors_naming_the_part(blocks):
+    a, b, c = blocks
+    with pytest.raises(ArticulationError, match="'c'"):
+        articulate(CompiledModel("m", {}, [a, b, c], [mate("ab", "b", "a")]))
+    loop = [mate("ab", "b", "a"), mate("ba", "a", "b", kind="kinematic", mtype="revolute",
+                                       options={"limits": None})]
+    with pytest.raises(ArticulationError, match="loop"):
+        articulate(CompiledModel("m", {}, [a, b], loop))
+
+
+def test_mass_from_volume_and_density(blocks):
+    a, b, _ = blocks
+    model = CompiledModel("m", {}, [a, b], [mate("ab", "b", "a", kind="kinematic",
+                                                  mtype="revolute", options={"limits": None})])
+    masses = link_masses(model, articulate(model))
+    assert masses["a"].mass == pytest.approx(30 * 20 * 10 * 1e-9 * materials.get("steel").density)
+    mb = masses["b"]
+    assert mb.mass == pytest.approx(20 * 20 * 10 * 1e-9 * 2700)
+    # box 20x20x10 mm about its centre: Ixx = m (b^2 + c^2) / 12
+    np.testing.assert_allclose(mb.com, [0, 0, 0.005], atol=1e-12)
+    assert mb.inertia[0, 0] == pytest.approx(mb.mass * (0.02**2 + 0.01**2) / 12, rel=1e-9)
+    assert all(np.linalg.eigvalsh(m.inertia).min() > 0 for m in masses.values())
+
+
+def test_symmetry_axis_and_contact_area(blocks):
+    import build123d as bd
+    a, b, _ = blocks
+    cyl = part("cyl", bd.Cylinder(10, 40).rotate(bd.Axis.X, 90).moved(bd.Location((0, 200, 0))))
+    cube = part("cube", bd.Box(20, 20, 20).moved(bd.Location((0, -200, 0))))
+    ev = mates_evidence(CompiledModel("m", {}, [a, b, cyl, cube], []))
+    sym = ev["parts"]["cyl"]["symmetry"]
+    assert sym["kind"] == "axis"
+    assert abs(abs(sym["axis"][1]) - 1.0) < 1e-9
+    assert ev["parts"]["cube"]["symmetry"]["kind"] == "isotropic"
+    assert ev["parts"]["cube"]["symmetry"]["axis"] is None
+    (c,) = ev["contacts"]
+    assert {c["a"], c["b"]} == {"a", "b"}
+    assert c["area_mm2"] == pytest.approx(400.0, rel=0.02)

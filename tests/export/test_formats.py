@@ -1,0 +1,136 @@
+"""Every format of the bundle: names, materials, and cross-format joint agreement (<= 1e-6)."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from procedura_brep.articulation import articulate, link_masses
+from procedura_brep.export.bundle import FORMATS, parse_formats, write_bundle
+from procedura_brep.export.obj import read_obj_groups
+from procedura_brep.sim.fidelity import angle, expected_frames, mj_joint_frames
+
+LAMP = Path(__file__).resolve().parents[1] / "program" / "lamp.py"
+
+
+def compile_lamp(worker):
+    """The test lamp with arm limits (-45, 45) (its own (-60, 60) drives the arm into the base)."""
+    from procedura_brep.program import compile_source
+    src = LAMP.read_text().replace("limits=(-60, 60)", "limits=(-45, 45)")
+    return compile_source(src, name="lamp", worker=worker)
+
+TOL_M = 1e-6
+TOL_RAD = 1e-6
+
+
+@pytest.fixture(scope="module")
+def lamp(worker):
+    return compile_lamp(worker)
+
+
+@pytest.fixture(scope="module")
+def bundle(lamp, tmp_path_factory):
+    out = tmp_path_factory.mktemp("lamp")
+    return out, write_bundle(lamp, out)
+
+
+def test_bundle_files(bundle):
+    out, files = bundle
+    for rel in ("model.step", "model.obj", "model.mtl", "model.glb", "model.usda", "model.xml",
+                "urdf/robot.urdf", "urdf/robot.mujoco.urdf", "urdf/meshes/arm.stl"):
+        assert rel in files and (out / rel).stat().st_size > 0, rel
+    stems = [p.stem for p in (out / "urdf" / "meshes").iterdir()]
+    assert len(stems) == len(set(stems))
+
+
+def test_parse_formats():
+    assert parse_formats(None) == FORMATS
+    assert parse_formats("urdf, step") == ("step", "urdf")
+    with pytest.raises(ValueError, match="unknown export format.*bogus"):
+        parse_formats("step,bogus")
+
+
+def test_obj_groups_and_pbr_mtl(lamp, bundle):
+    out, _ = bundle
+    groups = read_obj_groups((out / "model.obj").read_text())
+    assert list(groups) == [p.name for p in lamp.parts] and all(groups.values())
+    mtl = (out / "model.mtl").read_text()
+    assert mtl.count("newmtl ") == len(lamp.parts)
+    assert "Pr 0.450000" in mtl and "Pm 1.000000" in mtl and "Kd " in mtl
+
+
+def test_glb_named_nodes_and_materials(lamp, bundle):
+    import trimesh
+    out, _ = bundle
+    scene = trimesh.load(io.BytesIO((out / "model.glb").read_bytes()), file_type="glb")
+    assert sorted(scene.graph.nodes_geometry) == sorted(p.name for p in lamp.parts)
+    mats = {k: g.visual.material for k, g in scene.geometry.items()}
+    assert mats["base"].roughnessFactor == pytest.approx(0.7)
+    assert mats["post"].metallicFactor == pytest.approx(1.0)
+
+
+def test_step_product_names_are_part_names(lamp, bundle):
+    from procedura_brep.export.step import read_step_parts
+    out, _ = bundle
+    names = sorted(p.name for p in read_step_parts((out / "model.step").read_bytes()))
+    assert names == sorted(p.name for p in lamp.parts)
+
+
+def test_joints_agree_across_formats(lamp, bundle):
+    """mates.json world frames == MJCF == URDF (both profiles) == USD, <= 1e-6 m / rad."""
+    import mujoco
+    import yourdfpy
+    from pxr import Usd
+    from procedura_brep.export.usd import usd_joint_frames
+    out, _ = bundle
+    art = articulate(lamp)
+    want = expected_frames(art)
+    got = {"mjcf": mj_joint_frames(mujoco.MjModel.from_xml_path(str(out / "model.xml"))),
+           "urdf-mujoco": mj_joint_frames(mujoco.MjModel.from_xml_path(
+               str(out / "urdf" / "robot.mujoco.urdf"))),
+           "usd": usd_joint_frames(Usd.Stage.Open(str(out / "model.usda")))}
+    u = yourdfpy.URDF.load(str(out / "urdf" / "robot.urdf"), load_meshes=False)
+    strict = {}
+    for name, j in u.joint_map.items():
+        t = u.get_transform(j.child, u.base_link)
+        strict[name] = (t[:3, 3], t[:3, :3] @ np.asarray(j.axis))
+    got["urdf-strict"] = strict
+    for fmt, frames in got.items():
+        assert set(frames) == set(want), fmt
+        for name, (anchor, axis) in want.items():
+            assert np.linalg.norm(frames[name][0] - anchor) <= TOL_M, (fmt, name)
+            assert angle(frames[name][1], axis) <= TOL_RAD, (fmt, name)
+
+
+def test_urdf_masses_and_limits(lamp, bundle):
+    import yourdfpy
+    out, _ = bundle
+    art = articulate(lamp)
+    masses = link_masses(lamp, art)
+    u = yourdfpy.URDF.load(str(out / "urdf" / "robot.urdf"), load_meshes=False)
+    assert u.validate()
+    for name, link in u.link_map.items():
+        assert link.inertial.mass == pytest.approx(masses[name].mass, rel=1e-9)
+    lim = u.joint_map["arm_pivot"].limit
+    assert (lim.lower, lim.upper) == pytest.approx((np.radians(-45), np.radians(45)))
+    assert lim.effort > 0 and lim.velocity > 0
+    text = (out / "urdf" / "robot.mujoco.urdf").read_text()
+    assert '<compiler' in text and 'fusestatic="false"' in text and 'discardvisual="false"' in text
+    assert "package://" not in text
+
+
+def test_usd_units_axes_and_drives(bundle):
+    from pxr import Usd, UsdGeom, UsdPhysics
+    out, _ = bundle
+    stage = Usd.Stage.Open(str(out / "model.usda"))
+    assert UsdGeom.GetStageUpAxis(stage) == "Z" and UsdGeom.GetStageMetersPerUnit(stage) == 1.0
+    joint = UsdPhysics.RevoluteJoint(stage.GetPrimAtPath("/lamp/joints/arm_pivot"))
+    assert joint.GetAxisAttr().Get() == "X"
+    assert joint.GetLowerLimitAttr().Get() == pytest.approx(-45.0)
+    assert joint.GetPrim().HasAPI(UsdPhysics.DriveAPI, "angular")
+    bodies = [p for p in stage.Traverse() if p.HasAPI(UsdPhysics.RigidBodyAPI)]
+    assert sorted(p.GetName() for p in bodies) == ["arm", "base"]
+    assert all(p.HasAPI(UsdPhysics.MassAPI) for p in bodies)
