@@ -135,7 +135,22 @@ def compile_file(source: str, name: str) -> CompiledModel:
     from .program.sandbox import compile_source, default_worker
     default_worker()  # starts the worker process now, returns at once
     kernel.warm_up()
+    _warm_exports()
     return compile_source(source, name=name)
+
+
+def _warm_exports() -> None:
+    """Import what gates and exports need while the worker boots (free wall time)."""
+    import scipy.spatial  # noqa: F401
+    import trimesh  # noqa: F401
+
+    from . import gates  # noqa: F401
+    from .export import bundle  # noqa: F401
+    try:
+        import mujoco  # noqa: F401
+        from pxr import Usd, UsdPhysics  # noqa: F401
+    except ImportError:  # pragma: no cover - reported by doctor
+        pass
 
 
 def build(program: Path, out_dir: Path, *, formats: tuple[str, ...] | None = ALL_FORMATS,

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..kernel import Mesh, tessellate
+from ..kernel import Mesh
 from ..program.model import CompiledPart
 
 log = logging.getLogger(__name__)
@@ -28,7 +28,6 @@ COACD_THRESHOLD = 0.08
 #: Components with fewer triangles than this are skipped in collision (slivers).
 MIN_COMPONENT_FACES = 4
 
-_VISUAL: dict[str, Mesh] = {}
 _COLLISION: dict[str, list[Mesh]] = {}
 
 
@@ -42,10 +41,7 @@ class PartMesh:
 
 def part_mesh(part: CompiledPart) -> Mesh:
     """The part's exact visual mesh in WORLD coordinates, mm (cached by digest)."""
-    key = part.digest
-    if key not in _VISUAL:
-        _VISUAL[key] = tessellate(part.shape())
-    return _VISUAL[key]
+    return part.mesh()
 
 
 def transform(mesh: Mesh, matrix: np.ndarray, *, scale: float = 1.0) -> Mesh:
@@ -127,5 +123,6 @@ def stl_bytes(mesh: Mesh) -> bytes:
 
 def clear_cache() -> None:
     """Forget every cached mesh (tests)."""
-    _VISUAL.clear()
+    from ..program.model import clear_mesh_cache
+    clear_mesh_cache()
     _COLLISION.clear()

@@ -177,7 +177,7 @@ def part_geometry(part: CompiledPart) -> PartGeometry:
     from .. import kernel
 
     shape = part.shape()
-    mesh = kernel.tessellate(shape)
+    mesh = part.mesh()
     v, f = mesh.vertices, mesh.faces
     solids = _solids(shape)
     boxes = [tuple(np.array(c) for c in kernel.bbox(s, optimal=False)) for s in solids]

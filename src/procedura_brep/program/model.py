@@ -43,6 +43,15 @@ class Finding:
         return {k: v for k, v in self.__dict__.items() if v is not None}
 
 
+_MESHES: dict[str, Any] = {}
+_MESH_CACHE_SIZE = 512
+
+
+def clear_mesh_cache() -> None:
+    """Forget every cached part mesh (tests, memory)."""
+    _MESHES.clear()
+
+
 @dataclass
 class CompiledPart:
     """One part: its local solid (features applied) and where it sits in the world."""
@@ -77,6 +86,22 @@ class CompiledPart:
         """The part's TopoDS_Shape placed in the world."""
         from .. import kernel
         return kernel.located(self.local_shape(), self.placement)
+
+    def mesh(self):
+        """The part's world mesh (mm) with the fixed tessellation settings of ``config.TOL``.
+
+        Shared by gates, exports and renders through a digest-keyed cache, so each geometry is
+        tessellated once per process.
+        """
+        key = self.digest
+        hit = _MESHES.get(key)
+        if hit is None:
+            from .. import kernel
+            hit = kernel.tessellate(self.shape())
+            if len(_MESHES) >= _MESH_CACHE_SIZE:
+                _MESHES.pop(next(iter(_MESHES)))
+            _MESHES[key] = hit
+        return hit
 
     def world_frame(self, frame: str) -> np.ndarray:
         return self.placement @ self.frames[frame]

@@ -57,8 +57,7 @@ def part_mesh(part: CompiledPart) -> tuple[np.ndarray, np.ndarray]:
     if hit is not None:
         _MESHES.move_to_end(key)
         return hit
-    from .. import kernel
-    mesh = kernel.tessellate(part.shape())
+    mesh = part.mesh()
     if len(mesh.faces) == 0:
         log.warning("part %s tessellated to no triangles; it will not be drawn", part.name)
         out = (np.zeros((0, 3), np.float32), np.zeros((0, 3), np.float32))
