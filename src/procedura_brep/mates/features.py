@@ -10,7 +10,6 @@ This module imports build123d and runs only inside the sandboxed compile worker.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from typing import Any
 
@@ -154,4 +153,4 @@ def build(mtype: str, d: float, fit: Fit, options: dict[str, Any]) -> Halves:
     return MACROS[mtype](d, fit, options)
 
 
-__all__ = ["MACROS", "build", "math"]
+__all__ = ["MACROS", "build"]

@@ -66,9 +66,10 @@ def check_value(mate: str, mtype: str, value: float | Sequence[float],
 
 
 def spherical_delta(value: Sequence[float]) -> np.ndarray:
-    """Rotation for a spherical joint value given as (rx, ry, rz) degrees, applied X then Y then Z."""
+    """Rotation for a spherical joint value (rx, ry, rz) in degrees: intrinsic X, then Y, then Z
+    (``Rx @ Ry @ Rz``, build123d's ``Intrinsic.XYZ``, as its ``BallJoint`` uses)."""
     rx, ry, rz = (float(v) for v in value)
-    return rot_z(rz) @ rot_y(ry) @ rot_x(rx)
+    return rot_x(rx) @ rot_y(ry) @ rot_z(rz)
 
 
 def spherical_tilt_deg(m: np.ndarray) -> float:

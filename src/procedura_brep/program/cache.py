@@ -24,7 +24,6 @@ from typing import Any
 import numpy as np
 
 from .registry import Registry
-from .sections import Sections
 
 
 @lru_cache(maxsize=1)
@@ -64,7 +63,7 @@ def _walk(code: types.CodeType, glb: dict[str, Any], params: dict[str, Any], sou
             _walk(fn_code, glb, params, source_lines, seen, out)
 
 
-def part_keys(source: str, sections: Sections, reg: Registry, params: dict[str, Any],
+def part_keys(source: str, reg: Registry, params: dict[str, Any],
               mates: list[dict[str, Any]], glb: dict[str, Any]) -> dict[str, str]:
     """The cache key of every declared part (see the module docstring)."""
     lines = source.splitlines()
@@ -83,7 +82,6 @@ def part_keys(source: str, sections: Sections, reg: Registry, params: dict[str, 
                         "fit": m["fit"].as_dict(), "options": m["options"],
                         "frame": np.round(m[frame], 12).tolist()}, sort_keys=True, default=str))
         keys[name] = hashlib.sha256("\n".join(parts).encode()).hexdigest()
-    _ = sections
     return keys
 
 

@@ -126,7 +126,7 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | None =
     if any(f.severity == "error" for f in b.findings):
         return CompiledModel(name, params, [], [], b.findings, b.timings)
     mates = _resolve_mates(b, reg, params)
-    keys = cache.part_keys(source, sections, reg, params, mates, glb)
+    keys = cache.part_keys(source, reg, params, mates, glb)
     hits = _load_cached(b, keys, cache_dir)
     _eval_parts(b, reg, hits)
     _apply_features(b, reg, mates, hits)
@@ -247,11 +247,23 @@ def _apply_features(b: _Build, reg: registry.Registry, mates: list[dict[str, Any
 
 
 def _place(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]]) -> None:
+    """Place every child in plan order through build123d joints, checked against the closed form.
+
+    The parent's ``RigidJoint`` sits at ``F_parent * Delta(home)`` and the child's at ``F_child``
+    (static mates); a kinematic mate's child is moved to ``home`` by the mate's own build123d
+    joint (RevoluteJoint / LinearJoint / BallJoint with its limits). The numpy closed form
+    ``T_parent * F_parent * Delta * F_child^-1`` must agree to 1e-9 mm / rad.
+    """
+    from build123d import Location
+
     from ..config import TOL
+    from ..mates.joints import kinematic, rigid_place
     names = list(reg.parts)
     if not names:
         return
     b.world[names[0]] = np.eye(4)
+    for n, solid in b.solids.items():
+        solid.locate(Location())
     for m in mates:
         decl, mtype, opts = m["decl"], m["type"], m["options"]
         home = opts.get("home") if mtype.kind == "kinematic" else None
@@ -268,6 +280,8 @@ def _place(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]]) -> No
         elif decl.child not in b.world:
             b.world[decl.child] = solved
             m["primary"] = True
+            if decl.child in b.solids and decl.parent in b.solids:
+                _place_by_joint(b, reg, m, solved, kinematic, rigid_place)
         else:
             m["primary"] = False
             dist, ang = pl.residual(b.world[decl.child], solved)
@@ -285,6 +299,31 @@ def _place(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]]) -> No
                    part=n, line=reg.parts[n].line)
 
 
+def _place_by_joint(b: _Build, reg: registry.Registry, m: dict[str, Any], solved: np.ndarray,
+                    kinematic: Any, rigid_place: Any) -> None:
+    """Move the child's solid with build123d joints and check it against ``solved``."""
+    decl, mtype, opts = m["decl"], m["type"], m["options"]
+    parent, child = b.solids[decl.parent], b.solids[decl.child]
+    fp = reg.frames[decl.parent][decl.parent_frame]
+    fc = reg.frames[decl.child][decl.child_frame]
+    try:
+        if mtype.kind == "kinematic":
+            joint = kinematic(mtype.name, parent, child, fp, fc, decl.name,
+                              limits=opts.get("limits"), cone=opts.get("cone"))
+            joint.move((0.0, 0.0, 0.0) if mtype.name == "spherical" else opts.get("home", 0.0))
+        else:
+            rigid_place(parent, child, fp, fc, decl.name)
+    except ValueError as exc:
+        b.fail("joint", f"mate {decl.name}: build123d refused the joint: {exc}", mate=decl.name,
+               line=decl.line)
+        return
+    dist, ang = pl.residual(loc_matrix(child.location), solved)
+    if dist > 1e-9 * max(1.0, float(np.abs(solved[:3, 3]).max())) or ang > 1e-9:
+        b.fail("joint", f"mate {decl.name}: build123d's joint placement differs from the closed "
+                        f"form by {dist:.3g} mm, {ang:.3g} rad (internal error)", mate=decl.name,
+               line=decl.line, value=dist)
+
+
 def _reads(decl: registry.PartDecl, params: dict[str, Any], reg: registry.Registry) -> tuple[str, ...]:
     names = set(decl.fn.__code__.co_names)
     for const in decl.fn.__code__.co_consts:
@@ -295,13 +334,15 @@ def _reads(decl: registry.PartDecl, params: dict[str, Any], reg: registry.Regist
 
 def _serialise(b: _Build, reg: registry.Registry, params: dict[str, Any],
                mates: list[dict[str, Any]], total: float, keys: dict[str, str]) -> CompiledModel:
+    from build123d import Location
+
     from .. import kernel
     parts: list[CompiledPart] = []
     for name, decl in reg.parts.items():
         if name not in b.solids or name not in b.world:
             continue
         frames = {k: loc_matrix(v) for k, v in reg.frames.get(name, {}).items()}
-        brep = b.cached_bytes.get(name) or kernel.write_brep(b.solids[name].wrapped)
+        brep = b.cached_bytes.get(name) or kernel.write_brep(b.solids[name].located(Location()).wrapped)
         parts.append(CompiledPart(name=name, brep=brep,
                                   placement=b.world[name], frames=frames, material=decl.material,
                                   detail=decl.detail, description=decl.description,

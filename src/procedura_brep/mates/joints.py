@@ -1,0 +1,111 @@
+"""build123d Joint objects for mates: placement and motion go through the kernel's joints.
+
+Static mates and the home pose of kinematic mates are placed by ``RigidJoint.connect_to``
+(the parent's joint sits at ``F_parent * Delta(home)``, the child's at ``F_child``). Kinematic
+mates also get the matching build123d joint on the parent, with its limits, so the part can be
+moved along exactly its free DOF:
+
+* ``revolute`` -> ``RevoluteJoint`` about the frame's Z axis. Without ``angle_reference``
+  build123d picks its own zero direction (``angle_reference`` with a non-Z axis gives wrong
+  poses in build123d 0.13), so the joint stores the offset between that zero and the frame's
+  X axis and :func:`move` converts our angle (from the frame's X) to build123d's.
+* ``prismatic`` -> ``LinearJoint`` along Z (always given an explicit range and position, which
+  build123d needs to avoid a NaN location). ``LinearJoint`` keeps the world orientation of the
+  parent, so the child's ``RigidJoint`` carries the frame's rotation.
+* ``spherical`` -> ``BallJoint`` at the frame, rotations X then Y then Z in degrees.
+
+Runs only where build123d is imported (the sandbox child and tests).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+from build123d import Axis, BallJoint, LinearJoint, Location, RevoluteJoint, RigidJoint
+
+from .placement import check_value
+
+
+@dataclass
+class KinematicJoint:
+    """A build123d joint on the parent plus the child's rigid joint it drives."""
+
+    mtype: str
+    joint: Any
+    child: RigidJoint
+    name: str = ""
+    limits: tuple[float, float] | None = None
+    cone: float | None = None
+    offset_deg: float = 0.0
+
+    def move(self, value: float | tuple[float, float, float]) -> None:
+        """Move the child to joint value ``value`` (deg, mm, or (rx, ry, rz) deg).
+
+        Raises:
+            RangeError: the value is outside the mate's limits (or cone); the message names the
+                mate, the value and the range.
+        """
+        check_value(self.name, self.mtype, value, limits=self.limits, cone=self.cone)
+        if self.mtype == "revolute":
+            self.joint.connect_to(self.child, angle=float(value) - self.offset_deg)  # type: ignore[arg-type]
+        elif self.mtype == "prismatic":
+            self.joint.connect_to(self.child, position=float(value))  # type: ignore[arg-type]
+        else:
+            self.joint.connect_to(self.child, angles=tuple(value))  # type: ignore[arg-type]
+
+
+def _rotation_only(loc: Location) -> Location:
+    return Location((0, 0, 0), loc.orientation)
+
+
+def rigid_place(parent: Any, child: Any, f_parent: Location, f_child: Location, label: str) -> Location:
+    """Place ``child`` so its frame ``f_child`` lands on ``f_parent`` of ``parent`` (in place).
+
+    Returns the child's new location.
+    """
+    pj = RigidJoint(f"{label}@parent", parent, joint_location=parent.location * f_parent)
+    cj = RigidJoint(f"{label}@child", child, joint_location=child.location * f_child)
+    pj.connect_to(cj)
+    return child.location
+
+
+def kinematic(mtype: str, parent: Any, child: Any, f_parent: Location, f_child: Location, label: str,
+              *, limits: tuple[float, float] | None = None, cone: float | None = None) -> KinematicJoint:
+    """The build123d joint of a kinematic mate, attached to ``parent`` and driving ``child``.
+
+    ``parent`` must already sit at its world location; frames are part-local.
+    """
+    world = parent.location * f_parent  # build123d joints take world locations at creation
+    origin = world.position
+    z_dir = (world * Location((0, 0, 1))).position - origin
+    child_frame = child.location * f_child
+    if mtype == "revolute":
+        lo, hi = limits if limits is not None else (-math.inf, math.inf)
+        probe = RevoluteJoint(f"{label}@probe", parent, axis=Axis(origin, z_dir))
+        rel = f_parent.inverse() * probe.relative_axis.location
+        del parent.joints[f"{label}@probe"]
+        m = rel.wrapped.Transformation()
+        offset = math.degrees(math.atan2(m.Value(2, 1), m.Value(1, 1)))
+        joint = RevoluteJoint(label, parent, axis=Axis(origin, z_dir),
+                              angular_range=(lo - offset, hi - offset))
+        return KinematicJoint(mtype, joint, RigidJoint(f"{label}@child", child, joint_location=child_frame),
+                              label, limits, None, offset)
+    if mtype == "prismatic":
+        if limits is None:
+            raise ValueError("a prismatic joint needs limits")
+        joint = LinearJoint(label, parent, axis=Axis(origin, z_dir), linear_range=limits)
+        carrier = child_frame * _rotation_only(f_parent).inverse()
+        return KinematicJoint(mtype, joint, RigidJoint(f"{label}@child", child, joint_location=carrier),
+                              label, limits)
+    if mtype == "spherical":
+        c = float(cone if cone is not None else 180.0)
+        joint = BallJoint(label, parent, joint_location=world,
+                          angular_range=((-c, c), (-c, c), (-180.0, 180.0)))
+        return KinematicJoint(mtype, joint, RigidJoint(f"{label}@child", child, joint_location=child_frame),
+                              label, None, c)
+    raise ValueError(f"{mtype!r} is not a kinematic mate type")
+
+
+__all__ = ["KinematicJoint", "kinematic", "rigid_place"]
