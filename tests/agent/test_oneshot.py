@@ -58,3 +58,31 @@ def test_extract_program():
     assert extract_program(text).startswith('"""Desk lamp')
     with pytest.raises(MalformedReplyError, match="no program"):
         extract_program("I cannot do that.")
+
+
+def test_exchange_provider_drives_generate(tmp_path, worker):
+    """A 'person' (a thread) answers the request file; the run builds the program."""
+    import threading
+
+    xchg = tmp_path / "xchg"
+    lamp = json.loads(TAPE.read_text().splitlines()[1])["reply"]["text"]
+
+    def answer() -> None:
+        deadline = time.monotonic() + 60
+        while time.monotonic() < deadline:
+            reqs = sorted(xchg.glob("*-oneshot.request.md")) if xchg.exists() else []
+            if reqs:
+                assert "Object to model: a desk lamp" in reqs[0].read_text()
+                tmp = xchg / "reply.tmp"
+                tmp.write_text(lamp)
+                tmp.rename(reqs[0].with_name(reqs[0].name.replace(".request.md", ".reply.md")))
+                return
+            time.sleep(0.1)
+
+    t = threading.Thread(target=answer)
+    t.start()
+    res = CliRunner().invoke(app, ["generate", "a desk lamp", "-o", str(tmp_path / "run"),
+                                   "--model", f"exchange:{xchg}", "--formats", "step"])
+    t.join()
+    assert res.exit_code == 0, res.output
+    assert json.loads((tmp_path / "run" / "report.json").read_text())["status"] == "ok"
