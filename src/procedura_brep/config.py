@@ -36,6 +36,23 @@ class Tolerances:
         sharp_dihedral_deg: Shrp60 threshold.
         volume_rel: relative volume tolerance in golden comparisons.
         bbox_mm: absolute bbox tolerance in golden comparisons.
+        sim_penetration_mm: battery B2/B3: exact-solid interference thicker than this (2V/S)
+            counts as penetration.
+        sim_anchor_m: battery B0/B5/B6: max joint anchor disagreement between an export and
+            the mate graph, metres.
+        sim_axis_rad: battery B0/B5/B6: max joint axis disagreement, radians.
+        sim_mass_rel: battery B5: max relative link mass disagreement after URDF re-import.
+        sweep_reach: battery B2: fraction of its range a position-driven joint must reach.
+        sweep_separation_m: battery B2: max separation of a child's joint anchor from its
+            parent's during a sweep, metres.
+        settle_joint_speed: battery B1: max joint speed (rad/s or m/s) after the settle.
+        drive_min_ratio: battery B4: min ratio of travelled to ideal rolling distance.
+        symmetry_eig_rel: articulation evidence: two surface-covariance eigenvalues closer than
+            this fraction of the largest are equal (symmetry axes).
+        contact_plane_cos: articulation evidence: two triangle normals with a dot product above
+            this are parallel (contact planes).
+        nonconvex_ratio: exports: a mesh component whose convex hull volume exceeds its own
+            volume by this factor is decomposed into convex collision pieces (CoACD).
     """
 
     placement_mm: float = 1e-6
@@ -57,6 +74,17 @@ class Tolerances:
     sharp_dihedral_deg: float = 60.0
     volume_rel: float = 1e-6
     bbox_mm: float = 1e-3
+    sim_penetration_mm: float = 0.1
+    sim_anchor_m: float = 1e-6
+    sim_axis_rad: float = 1e-6
+    sim_mass_rel: float = 1e-6
+    sweep_reach: float = 0.97
+    sweep_separation_m: float = 3e-3
+    settle_joint_speed: float = 0.05
+    drive_min_ratio: float = 0.3
+    symmetry_eig_rel: float = 0.02
+    contact_plane_cos: float = 0.99995
+    nonconvex_ratio: float = 1.3
 
 
 @dataclass(frozen=True)

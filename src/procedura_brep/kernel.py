@@ -49,6 +49,23 @@ def write_brep(shape) -> bytes:
     return buf.getvalue()
 
 
+def bake_location(shape):
+    """``shape`` with its location applied to its geometry and an empty location.
+
+    Part solids cross process boundaries and enter STEP as plain local geometry; a shape that
+    still carries a location (e.g. ``Pos(...) * Box(...)``) would become an XCAF reference.
+    """
+    if shape.Location().IsIdentity():
+        return shape
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_Transform
+    o = _ocp()
+    bare = shape.Located(o["TopLoc"].TopLoc_Location())
+    op = BRepBuilderAPI_Transform(bare, shape.Location().Transformation(), True)
+    if not op.IsDone():
+        raise KernelError("baking a shape's location into its geometry failed")
+    return op.Shape()
+
+
 def trsf(matrix: np.ndarray):
     """gp_Trsf of a rigid 4x4 matrix (mm)."""
     o = _ocp()

@@ -134,3 +134,41 @@ def test_usd_units_axes_and_drives(bundle):
     bodies = [p for p in stage.Traverse() if p.HasAPI(UsdPhysics.RigidBodyAPI)]
     assert sorted(p.GetName() for p in bodies) == ["arm", "base"]
     assert all(p.HasAPI(UsdPhysics.MassAPI) for p in bodies)
+
+
+def _rot(axis: str, a: float) -> np.ndarray:
+    c, s = np.cos(a), np.sin(a)
+    i, j = {"x": (1, 2), "y": (2, 0), "z": (0, 1)}[axis]
+    r = np.eye(3)
+    r[i, i] = r[j, j] = c
+    r[i, j], r[j, i] = -s, s
+    return r
+
+
+def test_rpy_round_trips_random_rotations_without_warnings():
+    import warnings
+    from scipy.spatial.transform import Rotation
+    from procedura_brep.export.urdf import rpy, rpy_matrix
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for r in Rotation.random(500, random_state=7).as_matrix():
+            roll, pitch, yaw = rpy(r)
+            assert np.abs(rpy_matrix(roll, pitch, yaw) - r).max() <= 1e-12
+            assert abs(pitch) <= np.pi / 2
+            assert np.allclose(_rot("z", yaw) @ _rot("y", pitch) @ _rot("x", roll), r, atol=1e-12)
+
+
+@pytest.mark.parametrize("pitch", [np.pi / 2, -np.pi / 2])
+@pytest.mark.parametrize("other", [(0.0, 0.0), (0.4, -1.3)])
+def test_rpy_exact_at_gimbal_lock(pitch, other):
+    """The four gimbal cases (pitch +-90 deg, with and without roll/yaw): no warning, yaw = 0 by
+    convention, the matrix reconstructed to 1e-12."""
+    import warnings
+    from procedura_brep.export.urdf import rpy, rpy_matrix
+    roll0, yaw0 = other
+    r = _rot("z", yaw0) @ _rot("y", pitch) @ _rot("x", roll0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        roll, p, yaw = rpy(r)
+    assert p == pytest.approx(pitch, abs=1e-12) and yaw == 0.0
+    assert np.abs(rpy_matrix(roll, p, yaw) - r).max() <= 1e-12

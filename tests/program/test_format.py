@@ -103,3 +103,23 @@ def test_parent_must_be_placed_first(worker):
     src += 'mate("post.foot", "base.top", "peg_socket", nominal="spigot_d", fit="location")\n'
     m = worker.compile(src)
     assert any(f.code == "plan-order" and "'post' is not placed yet" in f.message for f in m.findings)
+
+
+def test_located_part_keeps_its_local_geometry_and_step_names(worker):
+    """A part returned as ``Pos(...) * Box(...)`` (a located shape) with no features keeps its
+    offset; every part's local solid carries no location (STEP names stay on products)."""
+    import re
+
+    from procedura_brep import kernel
+    from procedura_brep.export.step import step_bytes
+    src = LAMP.replace("    return Box(90, 14, 10, align=(Align.MIN, Align.CENTER, Align.CENTER))",
+                       "    return Pos(0, 0, 3) * Box(90, 14, 10, align=(Align.MIN, Align.CENTER, Align.CENTER))")
+    src = src.replace('limits=(-45, 45))', 'limits=(-45, 45), features=False)')
+    m = worker.compile(src)
+    assert m.ok, m.findings
+    arm = m.part("arm").local_shape()
+    assert arm.Location().IsIdentity()
+    lo, hi = kernel.bbox(arm)
+    assert lo[2] == pytest.approx(-2.0, abs=1e-6) and hi[2] == pytest.approx(8.0, abs=1e-6)
+    text = step_bytes(m).decode("ascii")
+    assert re.findall(r"PRODUCT\(\s*'([^']*)'", text) == ["model", "base", "post", "arm"]

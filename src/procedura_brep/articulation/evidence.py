@@ -3,8 +3,8 @@
 Symmetry axes: the area-weighted second moment (covariance) of a part's surface triangles about
 their area centroid. A solid of revolution has two equal eigenvalues; the eigenvector of the
 third, distinct one is its axis. When all three are equal (a cube, a sphere) there is no unique
-axis; when all differ there is none either. "Equal" means within :data:`EIG_REL_TOL` of the
-largest eigenvalue.
+axis; when all differ there is none either. "Equal" means within ``TOL.symmetry_eig_rel`` of
+the largest eigenvalue.
 
 Contacts: for part pairs whose boxes touch, the face-to-face contact area: coplanar,
 opposite-facing triangles within ``TOL.contact_mm`` are intersected exactly in their plane
@@ -24,10 +24,6 @@ from ..export.meshes import part_mesh
 from ..kernel import Mesh, bbox
 from ..program.model import CompiledModel
 
-#: Two covariance eigenvalues closer than this fraction of the largest are "equal".
-EIG_REL_TOL = 0.02
-#: Two triangle normals within acos(PLANE_COS) are parallel (contact planes).
-PLANE_COS = 0.99995
 
 
 def _tri_data(mesh: Mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -49,7 +45,7 @@ def symmetry_axis(mesh: Mesh) -> dict[str, Any]:
     s = (v - c).sum(axis=1)
     cov = (cov + np.einsum("n,ni,nj->ij", area, s, s)) / (12.0 * total)
     w, vec = np.linalg.eigh(cov)
-    tol = EIG_REL_TOL * float(w.max())
+    tol = TOL.symmetry_eig_rel * float(w.max())
     out: dict[str, Any] = {"point": c.tolist(), "eigenvalues": w.tolist()}
     if w[2] - w[0] <= tol:
         return {**out, "kind": "isotropic", "axis": None}
@@ -113,9 +109,9 @@ def contact_area(a: Mesh, b: Mesh, *, band: float = TOL.contact_mm) -> float:
     for i in np.nonzero(keep_a)[0]:
         if done[i]:
             continue
-        same = keep_a & ~done & (na @ na[i] > PLANE_COS) & (np.abs(da - da[i]) <= band)
+        same = keep_a & ~done & (na @ na[i] > TOL.contact_plane_cos) & (np.abs(da - da[i]) <= band)
         done |= same
-        opp = keep_b & (nb @ na[i] < -PLANE_COS) & (np.abs(db + da[i]) <= band)
+        opp = keep_b & (nb @ na[i] < -TOL.contact_plane_cos) & (np.abs(db + da[i]) <= band)
         if not opp.any():
             continue
         basis = _basis(na[i])

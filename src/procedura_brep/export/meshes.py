@@ -14,13 +14,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..config import TOL
 from ..kernel import Mesh
 from ..program.model import CompiledPart
 
 log = logging.getLogger(__name__)
 
-#: A component whose hull volume exceeds its own volume by this factor is decomposed (CoACD).
-NONCONVEX_RATIO = 1.3
 #: At most this many convex pieces per component from CoACD (caps its cost).
 COACD_MAX_HULLS = 8
 #: CoACD concavity threshold (its ``threshold`` argument); larger is faster and coarser.
@@ -105,7 +104,7 @@ def collision_pieces(part: CompiledPart) -> list[Mesh]:
         tm = trimesh.Trimesh(comp.vertices, comp.faces, process=False)
         vol = abs(float(tm.volume)) if tm.is_watertight else 0.0
         hvol = abs(float(trimesh.Trimesh(hull.vertices, hull.faces, process=False).volume))
-        if vol > 0 and hvol > NONCONVEX_RATIO * vol:
+        if vol > 0 and hvol > TOL.nonconvex_ratio * vol:
             dec = _coacd(comp)
             if dec:
                 pieces.extend(dec)

@@ -14,9 +14,12 @@ Actuators: a position servo per limited revolute/prismatic joint and a velocity 
 continuous joint. Position gains are scaled from the joint-space inertia so every servo has the
 same natural frequency (:data:`SERVO_HZ`); a velocity servo's gain is at least effort / velocity
 (full effort at stall), since a wheel carries the vehicle's load, not just its own inertia.
-Every actuator's force is limited by the mate's effort. Spherical joints are damped,
-not driven. The root is free when the assembly has wheels (:func:`wheel_joints`), otherwise
-welded to the world.
+Every actuator's force is limited by the mate's effort. A spherical joint (MuJoCo ``ball``,
+``range="0 cone"``: only the upper value, the cone half-angle, counts) is held by three position
+servos ``<joint>__x|y|z`` whose transmission is the ball's rotation vector projected on the joint
+frame's x, y and z (``gear``), each within +-cone: like a swivel's lock, they hold the compiled
+pose against gravity up to the mate's effort. The root is free when the assembly has wheels
+(:func:`wheel_joints`), otherwise welded to the world.
 """
 
 from __future__ import annotations
@@ -40,8 +43,6 @@ TIMESTEP = 0.002
 SERVO_HZ = 8.0
 #: Damping ratio of every servo.
 SERVO_ZETA = 1.0
-#: Joint damping on spherical joints, N m s / rad, per kg m^2 of joint-space inertia times omega.
-BALL_DAMPING_ZETA = 1.0
 #: A wheel's axis has at most this |z| component (it rolls on a horizontal floor).
 WHEEL_MAX_AXIS_Z = 0.5
 #: A wheel's radius is at least this many times its width along the axis.
@@ -166,9 +167,18 @@ def _build(model: CompiledModel, art: Articulation, masses: dict[str, MassProps]
         j = art.joint(lk.parent_joint)
         kp = (gains or {}).get(j.name, 1.0)
         if j.type == "spherical":
-            jt = body.add_joint(name=j.name, type=mujoco.mjtJoint.mjJNT_BALL,
+            # a ball joint's range is "0 cone": only the upper value (the cone half-angle) counts
+            jt = body.add_joint(name=j.name, type=mujoco.mjtJoint.mjJNT_BALL, pos=[0, 0, 0],
                                 range=[0.0, float(j.upper)], limited=mujoco.mjtLimited.mjLIMITED_TRUE)
-            jt.damping = float(kp)
+            for k, ax in enumerate("xyz"):  # hold servos about the joint frame's x, y, z
+                act = spec.add_actuator(name=f"{j.name}__{ax}", target=j.name,
+                                        trntype=mujoco.mjtTrn.mjTRN_JOINT)
+                act.gear = [1.0 if i == k else 0.0 for i in range(6)]
+                omega = 2 * np.pi * SERVO_HZ
+                act.set_to_position(kp=float(kp * omega**2), kv=float(2 * SERVO_ZETA * kp * omega))
+                act.ctrlrange = [-float(j.upper), float(j.upper)]
+                act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+                act.forcerange = [-j.effort, j.effort]
             continue
         jtype = mujoco.mjtJoint.mjJNT_SLIDE if j.type == "prismatic" else mujoco.mjtJoint.mjJNT_HINGE
         jt = body.add_joint(name=j.name, type=jtype, axis=[0, 0, 1], pos=[0, 0, 0])
@@ -220,8 +230,8 @@ def build_mjcf(model: CompiledModel, *, art: Articulation | None = None,
         mjj = float(mass_matrix[dof, dof])
         if j.type == "continuous":  # velocity servo: stall torque = effort at full speed
             gains[j.name] = max(2 * SERVO_ZETA * mjj * omega, j.effort / max(j.velocity, 1e-9))
-        elif j.type == "spherical":
-            gains[j.name] = 2 * BALL_DAMPING_ZETA * mjj * omega
+        elif j.type == "spherical":  # the largest of its three diagonal inertias
+            gains[j.name] = float(np.max(np.diag(mass_matrix)[dof:dof + 3]))
         else:
             gains[j.name] = mjj
     excluded: set[tuple[str, str]] = set()

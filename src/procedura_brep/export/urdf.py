@@ -1,10 +1,16 @@
 """URDF export in two profiles, as ``{relative path: bytes}`` (robot file plus ``meshes/``).
 
 * ``strict``: plain URDF that yourdfpy and ``check_urdf`` accept. A spherical joint becomes three
-  revolutes (X, Y, Z, each limited to the cone angle) through two tiny-mass links
+  revolutes ``<joint>__x|y|z`` about the joint frame's X, Y, Z axes, all at the anchor, each
+  limited to +-cone (a box that contains the cone), through two tiny-mass links
   (:data:`TINY_MASS_KG`). Every ``<limit>`` carries effort and velocity.
 * ``mujoco``: the same tree with spherical joints kept (``type="spherical"``) and a
   ``<mujoco><compiler .../></mujoco>`` element so MuJoCo keeps static bodies and visuals.
+  MuJoCo's URDF importer turns ``spherical`` into a ``ball`` joint and copies
+  ``<limit lower upper>`` into its range; a ball range is ``0 cone`` (only the upper value, the
+  cone half-angle, is used), so a spherical joint's limit is ``lower="0" upper="<cone rad>"``
+  (``autolimits`` makes it limited). URDF parsers other than MuJoCo's do not know the type:
+  use the strict profile for them.
 
 Link frames follow :mod:`procedura_brep.articulation.tree` (a child link's origin is its joint
 anchor, its +Z the joint axis), so every joint axis is ``0 0 1``. Units: metres, kg, radians.
@@ -14,6 +20,7 @@ collision pieces are ``<part>__c<k>``).
 
 from __future__ import annotations
 
+import math
 import xml.etree.ElementTree as ET
 from typing import Literal
 
@@ -46,10 +53,39 @@ def vec(v: np.ndarray) -> str:
     return " ".join(fmt(x) for x in v)
 
 
+#: Below this ``hypot(R00, R10)`` (= |cos pitch|) the pitch is +-90 deg to machine precision
+#: (gimbal lock): yaw is set to 0 and roll carries the whole rotation about the shared axis.
+GIMBAL_EPS = 1e-15
+
+
 def rpy(r: np.ndarray) -> np.ndarray:
-    """URDF roll-pitch-yaw (R = Rz(y) Ry(p) Rx(r))."""
-    from scipy.spatial.transform import Rotation
-    return Rotation.from_matrix(r).as_euler("xyz")
+    """URDF roll-pitch-yaw ``(r, p, y)`` with ``R = Rz(y) Ry(p) Rx(r)``, exact at gimbal lock.
+
+    Yaw comes from the first column; roll and pitch from ``Rz(-y) R = Ry(p) Rx(r)``, which is
+    well conditioned for any yaw (the residual of a slightly wrong yaw lands in the entry that is
+    0 by construction), so ``R`` is reconstructed to machine precision everywhere, including
+    pitch = +-90 deg, where yaw is 0 by convention (:data:`GIMBAL_EPS`). No warnings.
+    """
+    m = np.asarray(r, dtype=float)
+    c = float(np.hypot(m[0, 0], m[1, 0]))
+    yaw = math.atan2(m[1, 0], m[0, 0]) if c > GIMBAL_EPS else 0.0
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    # rows of Rz(-yaw) @ m that are needed: row0 = cy*m0 + sy*m1, row1 = -sy*m0 + cy*m1
+    row0 = cy * m[0] + sy * m[1]
+    row1 = -sy * m[0] + cy * m[1]
+    roll = math.atan2(-row1[2], row1[1])
+    pitch = math.atan2(-m[2, 0], row0[0])
+    return np.array([roll, pitch, yaw])
+
+
+def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """The 3x3 rotation ``Rz(yaw) Ry(pitch) Rx(roll)`` (the inverse of :func:`rpy`)."""
+    cr, sr, cp, sp = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch)
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    rz = np.array([[cy, -sy, 0.0], [sy, cy, 0.0], [0.0, 0.0, 1.0]])
+    ry = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]])
+    rx = np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
+    return rz @ ry @ rx
 
 
 def origin(parent: ET.Element, m: np.ndarray) -> None:
@@ -148,7 +184,9 @@ def urdf_text(model: CompiledModel, *, profile: Profile = "strict",
             _joint(robot, f"{j.name}__z", "revolute", f"{j.name}__y", j.child, ident, "0 0 1",
                    j, -cone, cone)
         elif j.type == "spherical":
-            _joint(robot, j.name, "spherical", j.parent, j.child, org, "0 0 1", j, None, None)
+            # MuJoCo's URDF importer maps "spherical" to a ball joint and reads <limit lower upper>
+            # into its range, whose ball convention is "0 cone" (autolimits makes it limited)
+            _joint(robot, j.name, "spherical", j.parent, j.child, org, "0 0 1", j, 0.0, j.upper)
         else:
             _joint(robot, j.name, j.type, j.parent, j.child, org, "0 0 1", j, j.lower, j.upper)
     ET.indent(robot)

@@ -254,6 +254,8 @@ def _place(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]]) -> No
     joint (RevoluteJoint / LinearJoint / BallJoint with its limits). The numpy closed form
     ``T_parent * F_parent * Delta * F_child^-1`` must agree to 1e-9 mm / rad.
     """
+    import copy
+
     from build123d import Location
 
     from ..config import TOL
@@ -262,8 +264,11 @@ def _place(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]]) -> No
     if not names:
         return
     b.world[names[0]] = np.eye(4)
-    for n, solid in b.solids.items():
-        solid.locate(Location())
+    # Joints move a shallow copy of each solid (same TShape, own location), so the solid's own
+    # location, which is part of its local geometry, is never touched.
+    carriers = {n: copy.copy(s) for n, s in b.solids.items()}
+    for c in carriers.values():
+        c.locate(Location())
     for m in mates:
         decl, mtype, opts = m["decl"], m["type"], m["options"]
         home = opts.get("home") if mtype.kind == "kinematic" else None
@@ -280,8 +285,8 @@ def _place(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]]) -> No
         elif decl.child not in b.world:
             b.world[decl.child] = solved
             m["primary"] = True
-            if decl.child in b.solids and decl.parent in b.solids:
-                _place_by_joint(b, reg, m, solved, kinematic, rigid_place)
+            if decl.child in carriers and decl.parent in carriers:
+                _place_by_joint(carriers, reg, m, solved, kinematic, rigid_place, b)
         else:
             m["primary"] = False
             dist, ang = pl.residual(b.world[decl.child], solved)
@@ -299,11 +304,11 @@ def _place(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]]) -> No
                    part=n, line=reg.parts[n].line)
 
 
-def _place_by_joint(b: _Build, reg: registry.Registry, m: dict[str, Any], solved: np.ndarray,
-                    kinematic: Any, rigid_place: Any) -> None:
-    """Move the child's solid with build123d joints and check it against ``solved``."""
+def _place_by_joint(carriers: dict[str, Any], reg: registry.Registry, m: dict[str, Any],
+                    solved: np.ndarray, kinematic: Any, rigid_place: Any, b: _Build) -> None:
+    """Move the child's carrier with build123d joints and check it against ``solved``."""
     decl, mtype, opts = m["decl"], m["type"], m["options"]
-    parent, child = b.solids[decl.parent], b.solids[decl.child]
+    parent, child = carriers[decl.parent], carriers[decl.child]
     fp = reg.frames[decl.parent][decl.parent_frame]
     fc = reg.frames[decl.child][decl.child_frame]
     try:
@@ -334,15 +339,13 @@ def _reads(decl: registry.PartDecl, params: dict[str, Any], reg: registry.Regist
 
 def _serialise(b: _Build, reg: registry.Registry, params: dict[str, Any],
                mates: list[dict[str, Any]], total: float, keys: dict[str, str]) -> CompiledModel:
-    from build123d import Location
-
     from .. import kernel
     parts: list[CompiledPart] = []
     for name, decl in reg.parts.items():
         if name not in b.solids or name not in b.world:
             continue
         frames = {k: loc_matrix(v) for k, v in reg.frames.get(name, {}).items()}
-        brep = b.cached_bytes.get(name) or kernel.write_brep(b.solids[name].located(Location()).wrapped)
+        brep = b.cached_bytes.get(name) or kernel.write_brep(kernel.bake_location(b.solids[name].wrapped))
         parts.append(CompiledPart(name=name, brep=brep,
                                   placement=b.world[name], frames=frames, material=decl.material,
                                   detail=decl.detail, description=decl.description,

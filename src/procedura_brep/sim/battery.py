@@ -21,9 +21,10 @@ from pathlib import Path
 import numpy as np
 
 from ..articulation import articulate, link_masses
+from ..config import TOL
 from ..program.model import CompiledModel
 from . import contact
-from .dynamics import SEPARATION_M, SWEEP_REACH, check_b1, check_b4, check_b7, sweep_joint
+from .dynamics import check_b1, check_b4, check_b7, sweep_joint
 from .fidelity import check_b0, check_b5, check_b6
 from .frames import render_frames
 from .report import BatteryReport, CheckResult
@@ -59,7 +60,8 @@ def _load(source: CompiledModel | str | Path, out_dir: Path | None
 
 def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray]]:
     """B2: every driven joint reaches >= 97% of its range, adds no exact-mesh penetration deeper
-    than :data:`contact.PENETRATION_TOL_MM`, and its child never leaves its parent by > 3 mm."""
+    than ``TOL.sim_penetration_mm``, and its child never leaves its parent by more than
+    ``TOL.sweep_separation_m``."""
     import mujoco
     m.opt.gravity[:] = 0.0  # the sweep tests range and collisions; gravity is B1's business
     floor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
@@ -68,7 +70,7 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
     worst_reach, worst_pen, worst_sep = 1.0, 0.0, 0.0
     for j in art.joints:
         if j.type == "spherical":
-            rows[j.name] = {"skipped": "spherical joints are not driven"}
+            rows[j.name] = {"skipped": "spherical joints are held by servos, not swept"}
             continue
         r = sweep_joint(m, art, j.name)
         pen, pen_pair = 0.0, None
@@ -82,15 +84,15 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
         rows[j.name] = {"reach": r["reach"], "qmin": r["qmin"], "qmax": r["qmax"],
                         "new_penetration_mm": pen, "separation_m": r["separation_m"]}
         bad = False
-        if r["reach"] < SWEEP_REACH:
+        if r["reach"] < TOL.sweep_reach:
             problems.append(f"joint {j.name!r} reached {100 * r['reach']:.1f}% of its range "
-                            f"(needs {100 * SWEEP_REACH:.0f}%)")
+                            f"(needs {100 * TOL.sweep_reach:.0f}%)")
             bad = True
-        if pen > contact.PENETRATION_TOL_MM:
+        if pen > TOL.sim_penetration_mm:
             problems.append(f"joint {j.name!r} drives {pen_pair[0]!r} {pen:.3g} mm into "
-                            f"{pen_pair[1]!r} (limit {contact.PENETRATION_TOL_MM} mm)")
+                            f"{pen_pair[1]!r} (limit {TOL.sim_penetration_mm} mm)")
             bad = True
-        if r["separation_m"] > SEPARATION_M:
+        if r["separation_m"] > TOL.sweep_separation_m:
             problems.append(f"joint {j.name!r}: child separates {r['separation_m']:.3g} m from parent")
             bad = True
         if r["warnings"]:
@@ -103,8 +105,8 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
         worst_sep = max(worst_sep, r["separation_m"])
     measured = {"min_reach": worst_reach, "max_new_penetration_mm": worst_pen,
                 "max_separation_m": worst_sep, "joints": rows}
-    limits = {"min_reach": SWEEP_REACH, "max_new_penetration_mm": contact.PENETRATION_TOL_MM,
-              "max_separation_m": SEPARATION_M}
+    limits = {"min_reach": TOL.sweep_reach, "max_new_penetration_mm": TOL.sim_penetration_mm,
+              "max_separation_m": TOL.sweep_separation_m}
     return CheckResult("B2", "joint sweeps", not problems, measured, limits,
                        "; ".join(problems) or f"{len(rows)} joints swept"), worst_traj
 
@@ -112,7 +114,7 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
 def check_b3(model: CompiledModel, art) -> CheckResult:
     """B3: no two non-adjacent links interpenetrate at rest (exact solids)."""
     overlaps = contact.rest_overlaps(model, art)
-    deep = [o for o in overlaps if o.depth > contact.PENETRATION_TOL_MM]
+    deep = [o for o in overlaps if o.depth > TOL.sim_penetration_mm]
     worst = max(overlaps, key=lambda o: o.depth, default=None)
     measured = {"max_depth_mm": worst.depth if worst else 0.0,
                 "pairs": [{"a": o.a, "b": o.b, "volume_mm3": o.volume, "depth_mm": o.depth}
@@ -120,7 +122,7 @@ def check_b3(model: CompiledModel, art) -> CheckResult:
     msg = "; ".join(f"parts {o.a!r} (link {art.part_link[o.a]!r}) and {o.b!r} (link "
                     f"{art.part_link[o.b]!r}) interpenetrate {o.depth:.3g} mm" for o in deep)
     return CheckResult("B3", "rest-contact scan", not deep, measured,
-                       {"max_depth_mm": contact.PENETRATION_TOL_MM},
+                       {"max_depth_mm": TOL.sim_penetration_mm},
                        msg or "no non-adjacent links interpenetrate at rest")
 
 

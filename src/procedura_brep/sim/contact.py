@@ -19,8 +19,6 @@ from ..program.model import CompiledModel
 
 #: Boxes closer than this (mm) are tested with the exact boolean.
 BOX_MARGIN_MM = 0.01
-#: Interference thicker than this (mm) counts as penetration (B2, B3).
-PENETRATION_TOL_MM = 0.1
 
 
 @dataclass(frozen=True)

@@ -11,24 +11,19 @@ import math
 import numpy as np
 
 from ..articulation.tree import Articulation
+from ..config import TOL
 from .report import CheckResult
 
 #: B1: simulated settle time, s.
 SETTLE_S = 2.0
-#: B1: max joint speed at the end of the settle (rad/s or m/s).
-SETTLE_JOINT_SPEED = 0.05
 #: B1: max root linear speed at the end of the settle (m/s), free roots only.
 SETTLE_ROOT_SPEED = 0.05
-#: B2: fraction of the commanded range a position-driven joint must reach.
-SWEEP_REACH = 0.97
-#: B2: max separation of a child's joint anchor from its parent's, m.
-SEPARATION_M = 3e-3
 #: B2: ramp and hold durations, s.
 SWEEP_RAMP_S, SWEEP_HOLD_S = 1.5, 0.5
 #: B2: continuous joints are spun at this fraction of their velocity limit (capped at 2 pi).
 SPIN_FRACTION = 0.5
-#: B4: drive time, s, and the minimum ratio of travelled to ideal rolling distance.
-DRIVE_S, DRIVE_MIN_RATIO = 3.0, 0.3
+#: B4: drive time, s (the minimum travel ratio is ``TOL.drive_min_ratio``).
+DRIVE_S = 3.0
 #: B7: smoke-run length and control period, s; RNG seed.
 SMOKE_S, SMOKE_PERIOD_S, SMOKE_SEED = 2.0, 0.1, 0
 
@@ -83,14 +78,14 @@ def check_b1(m, art: Articulation) -> tuple[CheckResult, list[np.ndarray]]:
     problems = []
     if not finite:
         problems.append("state became NaN/inf")
-    if jspeed > SETTLE_JOINT_SPEED:
+    if jspeed > TOL.settle_joint_speed:
         problems.append(f"joint {worst!r} still moving at {jspeed:.3g} after {SETTLE_S} s")
     if rspeed > SETTLE_ROOT_SPEED:
         problems.append(f"root link {art.root.name!r} still moving at {rspeed:.3g} m/s")
     if warns:
         problems.append(f"MuJoCo warnings {warns}")
     measured = {"max_joint_speed": jspeed, "root_speed_mps": rspeed, "warnings": sum(warns.values())}
-    limits = {"max_joint_speed": SETTLE_JOINT_SPEED, "root_speed_mps": SETTLE_ROOT_SPEED, "warnings": 0}
+    limits = {"max_joint_speed": TOL.settle_joint_speed, "root_speed_mps": SETTLE_ROOT_SPEED, "warnings": 0}
     return CheckResult("B1", "dynamic settle", not problems, measured, limits,
                        "; ".join(problems) or f"settled within {SETTLE_S} s"), traj
 
@@ -158,7 +153,7 @@ def sweep_joint(m, art: Articulation, name: str) -> dict:
 def check_b4(m, art: Articulation, wheels: list[str], floor_z: float
              ) -> tuple[CheckResult, list[np.ndarray]]:
     """B4: after settling, every wheel touches the floor, and driving the wheels moves the root
-    at least :data:`DRIVE_MIN_RATIO` of the ideal rolling distance."""
+    at least ``TOL.drive_min_ratio`` of the ideal rolling distance."""
     import mujoco
     if not wheels:
         return CheckResult("B4", "wheeled mobility", True, message="no wheels: skipped",
@@ -192,12 +187,12 @@ def check_b4(m, art: Articulation, wheels: list[str], floor_z: float
     problems = []
     if off:
         problems.append(f"wheel(s) {', '.join(off)} do not touch the floor after settling")
-    if ratio < DRIVE_MIN_RATIO:
+    if ratio < TOL.drive_min_ratio:
         problems.append(f"root {art.root.name!r} travelled {moved:.3g} m of {ideal:.3g} m ideal "
-                        f"(ratio {ratio:.2f} < {DRIVE_MIN_RATIO})")
+                        f"(ratio {ratio:.2f} < {TOL.drive_min_ratio})")
     measured = {"wheels": len(wheels), "wheels_off_ground": len(off), "travel_m": moved,
                 "travel_ratio": ratio}
-    limits = {"wheels_off_ground": 0, "travel_ratio": DRIVE_MIN_RATIO}
+    limits = {"wheels_off_ground": 0, "travel_ratio": TOL.drive_min_ratio}
     return CheckResult("B4", "wheeled mobility", not problems, measured, limits,
                        "; ".join(problems) or f"{len(wheels)} wheels on the floor; drove {moved:.3g} m"), traj
 

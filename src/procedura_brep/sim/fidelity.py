@@ -14,15 +14,10 @@ from pathlib import Path
 import numpy as np
 
 from ..articulation.mass import MassProps
+from ..config import TOL
 from ..articulation.tree import Articulation
 from .report import CheckResult
 
-#: Max joint anchor disagreement between an export and the mate graph, m.
-ANCHOR_TOL_M = 1e-6
-#: Max joint axis disagreement, rad.
-AXIS_TOL_RAD = 1e-6
-#: Max relative link mass disagreement after URDF re-import.
-MASS_REL_TOL = 1e-6
 
 MJ_TYPES = {"revolute": "hinge", "continuous": "hinge", "prismatic": "slide", "spherical": "ball"}
 
@@ -95,8 +90,8 @@ def check_b0(art: Articulation, m) -> CheckResult:
     da, dr, wa, wr = compare_frames(art, mj_joint_frames(m), expected_frames(art))
     measured = {"bodies": len(bodies), "joints": len(got_types), "anchor_err_m": da,
                 "axis_err_rad": dr}
-    limits = {"bodies": len(links), "joints": len(want_types), "anchor_err_m": ANCHOR_TOL_M,
-              "axis_err_rad": AXIS_TOL_RAD}
+    limits = {"bodies": len(links), "joints": len(want_types), "anchor_err_m": TOL.sim_anchor_m,
+              "axis_err_rad": TOL.sim_axis_rad}
     problems = []
     if bodies != links:
         problems.append(f"bodies {bodies} != links {links}")
@@ -104,11 +99,11 @@ def check_b0(art: Articulation, m) -> CheckResult:
         bad = sorted(k for k in set(got_types) | set(want_types) if got_types.get(k) != want_types.get(k))
         problems.append(f"joint mismatch at {', '.join(bad)}: MJCF {[got_types.get(k) for k in bad]}"
                         f" vs mates {[want_types.get(k) for k in bad]}")
-    if da > ANCHOR_TOL_M:
-        problems.append(f"joint {wa!r} anchor off by {da:.3g} m (limit {ANCHOR_TOL_M:g})")
-    if dr > AXIS_TOL_RAD:
+    if da > TOL.sim_anchor_m:
+        problems.append(f"joint {wa!r} anchor off by {da:.3g} m (limit {TOL.sim_anchor_m:g})")
+    if dr > TOL.sim_axis_rad:
         problems.append(f"joint {wr!r} axis off by {math.degrees(dr):.3g} deg "
-                        f"({dr:.3g} rad, limit {AXIS_TOL_RAD:g})")
+                        f"({dr:.3g} rad, limit {TOL.sim_axis_rad:g})")
     return CheckResult("B0", "model fidelity", not problems, measured, limits,
                        "; ".join(problems) or "MJCF bodies, joints, anchors and axes match the mates")
 
@@ -149,11 +144,11 @@ def check_b5(art: Articulation, masses: dict[str, MassProps], urdf_dir: Path) ->
         if e > mass_err:
             mass_err, worst = e, lk.name
     measured.update(anchor_err_m=da, axis_err_rad=dr, mass_rel_err=mass_err)
-    if da > ANCHOR_TOL_M:
+    if da > TOL.sim_anchor_m:
         problems.append(f"joint {wa!r} anchor off by {da:.3g} m after URDF import")
-    if dr > AXIS_TOL_RAD:
+    if dr > TOL.sim_axis_rad:
         problems.append(f"joint {wr!r} axis off by {dr:.3g} rad after URDF import")
-    if mass_err > MASS_REL_TOL:
+    if mass_err > TOL.sim_mass_rel:
         problems.append(f"link {worst!r} mass off by {mass_err:.3g} (relative) after URDF import")
     strict = urdf_dir / ROBOT_FILES["strict"]
     u = yourdfpy.URDF.load(str(strict), build_scene_graph=True, load_meshes=False)
@@ -175,8 +170,8 @@ def check_b5(art: Articulation, masses: dict[str, MassProps], urdf_dir: Path) ->
             problems.append(f"check_urdf failed: {r.stderr.strip()[:200]}")
     else:
         measured["check_urdf_rc"] = None
-    limits = {"anchor_err_m": ANCHOR_TOL_M, "axis_err_rad": AXIS_TOL_RAD,
-              "mass_rel_err": MASS_REL_TOL, "yourdfpy_valid": True, "check_urdf_rc": 0}
+    limits = {"anchor_err_m": TOL.sim_anchor_m, "axis_err_rad": TOL.sim_axis_rad,
+              "mass_rel_err": TOL.sim_mass_rel, "yourdfpy_valid": True, "check_urdf_rc": 0}
     return CheckResult("B5", "URDF re-import", not problems, measured, limits,
                        "; ".join(problems) or "URDF re-imports with the same joints, axes, masses")
 
@@ -210,13 +205,47 @@ def check_b6(art: Articulation, usda: Path) -> CheckResult:
         problems.append(f"joints missing in USD: {', '.join(missing)}")
     if len(roots) != 1:
         problems.append(f"{len(roots)} ArticulationRootAPI prims (need exactly 1)")
-    if da > ANCHOR_TOL_M:
+    if da > TOL.sim_anchor_m:
         problems.append(f"joint {wa!r} anchor off by {da:.3g} m in USD")
-    if dr > AXIS_TOL_RAD:
+    if dr > TOL.sim_axis_rad:
         problems.append(f"joint {wr!r} axis off by {dr:.3g} rad in USD")
     measured = {"validation_errors": len(errors), "articulation_roots": len(roots),
                 "anchor_err_m": da, "axis_err_rad": dr, "validators": len(names)}
-    limits = {"validation_errors": 0, "articulation_roots": 1, "anchor_err_m": ANCHOR_TOL_M,
-              "axis_err_rad": AXIS_TOL_RAD}
+    limits = {"validation_errors": 0, "articulation_roots": 1, "anchor_err_m": TOL.sim_anchor_m,
+              "axis_err_rad": TOL.sim_axis_rad}
     return CheckResult("B6", "USD validation", not problems, measured, limits,
                        "; ".join(problems) or "USD physics validators pass; joint frames agree")
+
+
+def bundle_joint_frames(root: Path, art: Articulation
+                        ) -> dict[str, dict[str, tuple[np.ndarray, np.ndarray]]]:
+    """World joint frames ``{format: {joint: (anchor m, unit axis)}}`` read back from a bundle.
+
+    Formats: ``mjcf`` (``model.xml``), ``urdf-mujoco`` and ``urdf-strict`` (``urdf/``, re-expressed
+    in the world through the root link's frame), ``usd`` (``model.usda``). In ``urdf-strict`` a
+    spherical joint appears as its three revolutes ``<joint>__x|y|z`` (axes: the joint frame's
+    X, Y, Z); every other format uses the mate names. Compare with :func:`expected_frames`.
+    """
+    import mujoco
+    import yourdfpy
+    from pxr import Usd
+    from ..export.urdf import ROBOT_FILES
+    from ..export.usd import usd_joint_frames
+    base = np.array(art.root.frame, dtype=float)
+    base[:3, 3] /= 1000.0
+
+    def world(frames: dict[str, tuple[np.ndarray, np.ndarray]]):
+        return {k: (base[:3, :3] @ a + base[:3, 3], base[:3, :3] @ x) for k, (a, x) in frames.items()}
+
+    out = {"mjcf": mj_joint_frames(mujoco.MjModel.from_xml_path(str(root / "model.xml"))),
+           "urdf-mujoco": world(mj_joint_frames(mujoco.MjModel.from_xml_path(
+               str(root / "urdf" / ROBOT_FILES["mujoco"])))),
+           "usd": usd_joint_frames(Usd.Stage.Open(str(root / "model.usda")))}
+    u = yourdfpy.URDF.load(str(root / "urdf" / ROBOT_FILES["strict"]), load_meshes=False)
+    strict = {}
+    for name, j in u.joint_map.items():
+        t = u.get_transform(j.child, u.base_link)
+        axis = t[:3, :3] @ np.asarray(j.axis, dtype=float)
+        strict[name] = (t[:3, 3], axis / np.linalg.norm(axis))
+    out["urdf-strict"] = world(strict)
+    return out
