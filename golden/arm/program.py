@@ -44,8 +44,10 @@ grip_h = 56.0          # mm, gripper height (Z)
 wall_t = 16.0          # mm, gripper side wall thickness
 guide_w = 8.0          # mm, finger guide bar: nominal of the finger prismatic mates
 finger_t = 18.0        # mm, finger carriage thickness (Y)
+carriage_l = 36.0      # mm, finger carriage length (X), clear of the palm's bolt heads
 finger_len = 70.0      # mm, finger tip length beyond the carriage
 stroke = 18.0          # mm, finger stroke (each)
+head_h = 4.0           # mm, gripper bolt head height above the palm
 lamp_peg_d = 8.0       # mm, status lamp peg: nominal of its peg_socket mate
 
 # === helpers ===
@@ -109,7 +111,7 @@ def wrist_o():
 
 def finger(s):
     """Finger on side s: carriage against the side wall and a jaw reaching past the channel."""
-    carriage = Pos(0, -s * finger_t / 2, 0) * Box(40, finger_t, 40)
+    carriage = Pos(0, -s * finger_t / 2, 0) * Box(carriage_l, finger_t, 40)
     carriage = fillet(carriage.edges().filter_by(Axis.Y), radius=3)
     tip = Pos(15 + finger_len / 2, -s * (finger_t - 5), 0) * Box(finger_len, 10, 30)
     pad = Pos(25 + finger_len / 2, -s * (finger_t + 1), 0) * Box(finger_len - 20, 2.5, 24)
@@ -191,7 +193,7 @@ def gripper_body():
     walls = [Pos(grip_len / 2, s * (grip_w - wall_t) / 2, 0) * Box(grip_len, wall_t, grip_h) for s in (1, -1)]
     g = palm + walls
     heads = [Rot(45 + 90 * i, 0, 0) * Pos(palm_t, 0, grip_pcd / 2) * Rot(0, 90, 0)
-             * Cylinder(0.85 * grip_bolt, 4, align=bottom()) for i in range(4)]
+             * Cylinder(0.85 * grip_bolt, head_h, align=bottom()) for i in range(4)]
     return g + heads
 
 
@@ -228,8 +230,8 @@ frames("wrist", pitch=Location((0, 0, 0), side(-1)),
        roll=Location((wrist_l, -wrist_t / 2, 0), ahead()))
 frames("tool_flange", roll=Location((0, 0, 0), ahead()), face=Location((flange_t, 0, 0), ahead()))
 frames("gripper_body", mount=Location((0, 0, 0), ahead()),
-       finger_l=Location(((grip_len + palm_t) / 2, grip_w / 2 - wall_t, 0), side(-1)),
-       finger_r=Location(((grip_len + palm_t) / 2, -(grip_w / 2 - wall_t), 0), side(1)))
+       finger_l=Location(((grip_len + palm_t + head_h) / 2, grip_w / 2 - wall_t, 0), side(-1)),
+       finger_r=Location(((grip_len + palm_t + head_h) / 2, -(grip_w / 2 - wall_t), 0), side(1)))
 frames("finger_l", slide=Location((0, 0, 0), side(-1)))
 frames("finger_r", slide=Location((0, 0, 0), side(1)))
 frames("status_lamp", foot=Location((0, 0, 0)))
@@ -246,7 +248,7 @@ mate("upper_arm.shoulder", "turret.shoulder", "revolute", nominal="shoulder_pin_
 mate("elbow_motor.face", "upper_arm.motor", "bolt_pattern", nominal="motor_bolt", fit="clearance",
      count=4, pcd=50, angle0=45)
 mate("forearm.elbow", "upper_arm.elbow", "revolute", nominal="elbow_pin_d", fit="clearance",
-     limits=(-135, 135), effort=150, velocity=2.0)
+     limits=(-65, 135), effort=150, velocity=2.0)
 mate("wrist.pitch", "forearm.wrist", "revolute", nominal="wrist_pin_d", fit="clearance",
      limits=(-120, 120), effort=40, velocity=3.0)
 mate("tool_flange.roll", "wrist.roll", "revolute", nominal="roll_pin_d", fit="clearance",
@@ -254,7 +256,7 @@ mate("tool_flange.roll", "wrist.roll", "revolute", nominal="roll_pin_d", fit="cl
 mate("gripper_body.mount", "tool_flange.face", "bolt_pattern", nominal="grip_bolt", fit="clearance",
      count=4, pcd=grip_pcd, angle0=45)
 mate("finger_l.slide", "gripper_body.finger_l", "prismatic", nominal="guide_w", fit="clearance",
-     limits=(0, stroke), depth=wall_t - 4, effort=80)
+     limits=(0, stroke), depth=stroke + 1.5 * guide_w, effort=80)
 mate("finger_r.slide", "gripper_body.finger_r", "prismatic", nominal="guide_w", fit="clearance",
-     limits=(0, stroke), depth=wall_t - 4, effort=80)
+     limits=(0, stroke), depth=stroke + 1.5 * guide_w, effort=80)
 mate("status_lamp.foot", "turret.lamp", "peg_socket", nominal="lamp_peg_d", fit="location")

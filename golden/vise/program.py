@@ -16,7 +16,7 @@ cup_h = 30.0          # mm, ball cup height above the mount plate
 ball_d = 50.0         # mm, swivel ball: nominal of the spherical mate
 cone = 25.0           # deg, swivel cone half-angle
 knob_peg_d = 8.0      # mm, lock knob peg: nominal of its peg_socket mate
-neck_d = 60.0         # mm, body neck diameter (wider than the ball: it rests on the cup)
+neck_d = 40.0         # mm, body neck diameter (narrower than the ball, so it swivels inside the socket)
 neck_h = 25.0         # mm, body neck height
 bed_l = 220.0         # mm, body bed length (X)
 bed_w = 80.0          # mm, body bed width (Y)
@@ -153,7 +153,7 @@ mate("lock_knob.foot", "mount_base.knob", "peg_socket", nominal="knob_peg_d", fi
 mate("fixed_plate.back", "body.fixed_plate", "bolt_pattern", nominal="plate_bolt", fit="clearance",
      count=2, pcd=plate_pcd, angle0=90)
 mate("moving_jaw.nose", "body.slide", "prismatic", nominal="guide_w", fit="clearance",
-     limits=(0, opening), effort=2000, velocity=0.05)
+     limits=(0, opening), depth=opening + 1.5 * guide_w, effort=2000, velocity=0.05)
 mate("moving_plate.back", "moving_jaw.plate", "bolt_pattern", nominal="plate_bolt", fit="clearance",
      count=2, pcd=plate_pcd, angle0=90)
 mate("screw.collar", "moving_jaw.screw", "seat_face", nominal="screw_collar_d", fit="location")
