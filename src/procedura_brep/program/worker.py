@@ -105,7 +105,26 @@ def _kill_group(pid: int) -> None:
         pass
 
 
+def _stub_unused_imports() -> None:
+    """Skip scikit-learn (~0.5-1 s of build123d's import): build123d uses it only for
+    ``import_stl``'s clustering, and programs have no file import. The stub raises if used."""
+    import types
+    if "sklearn" in sys.modules:
+        return
+    sk, cluster = types.ModuleType("sklearn"), types.ModuleType("sklearn.cluster")
+
+    class DBSCAN:  # noqa: D401 - stand-in
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            raise ImportError("scikit-learn is not loaded in the compile worker (STL import is "
+                              "not available to programs)")
+
+    cluster.DBSCAN = DBSCAN  # type: ignore[attr-defined]
+    sk.cluster = cluster  # type: ignore[attr-defined]
+    sys.modules["sklearn"], sys.modules["sklearn.cluster"] = sk, cluster
+
+
 def main() -> None:
+    _stub_unused_imports()
     import build123d  # noqa: F401 - the whole point: pay the import once
 
     from . import runtime  # noqa: F401

@@ -14,7 +14,26 @@ HEADLESS_ENV: dict[str, str] = {"MUJOCO_GL": "egl", "PYOPENGL_PLATFORM": "egl"}
 """Variables set (with ``setdefault``) for headless EGL rendering on Mesa llvmpipe or a GPU."""
 
 
+def egl_available() -> bool:
+    """Whether a libEGL can be loaded (Mesa's or a GPU driver's)."""
+    import ctypes
+    for name in ("libEGL.so.1", "libEGL.so"):
+        try:
+            ctypes.CDLL(name)
+            return True
+        except OSError:
+            continue
+    return False
+
+
 def ensure_headless() -> None:
-    """Set :data:`HEADLESS_ENV` in ``os.environ`` unless the user chose other values."""
+    """Set :data:`HEADLESS_ENV` in ``os.environ`` unless the user chose other values.
+
+    Without a loadable libEGL nothing is set: ``MUJOCO_GL=egl`` would make ``import mujoco``
+    fail, while without it MuJoCo still imports and simulates (only rendering is unavailable;
+    ``procedura-brep doctor`` says how to install EGL).
+    """
+    if all(k in os.environ for k in HEADLESS_ENV) or not egl_available():
+        return
     for key, value in HEADLESS_ENV.items():
         os.environ.setdefault(key, value)
