@@ -129,3 +129,13 @@ def test_render_cli(tmp_path):
     assert (tmp_path / "r" / "clay_iso_ne.png").exists() and (tmp_path / "r" / "clay_sheet.png").exists()
     res = invoke("render", str(LAMP), "-o", str(tmp_path / "r"), "--views", "sideways")
     assert res.exit_code == 2 and "sideways" in res.output
+
+
+def test_doctor_reports_every_component():
+    res = invoke("doctor")
+    names = ("CAD kernel", "MuJoCo", "OpenUSD", "render backend", "FreeCAD", "model")
+    for name in names:
+        assert name in res.output, res.output
+    assert res.exit_code == (1 if "MISSING" in res.output else 0)
+    res = invoke("doctor", "--model", "nonsense:model")
+    assert "nonsense" in res.output and res.exit_code == 1
