@@ -51,6 +51,9 @@ class Tolerances:
             this fraction of the largest are equal (symmetry axes).
         contact_plane_cos: articulation evidence: two triangle normals with a dot product above
             this are parallel (contact planes).
+        sweep_rest_interference_mm: battery B2: a pair thicker than this at rest is interfering
+            at rest (checked by B3 and the mate gate) and is not swept.
+        sweep_box_slack_mm: battery B2: slack added to the box prefilters of the sweep.
         nonconvex_ratio: exports: a mesh component whose convex hull volume exceeds its own
             volume by this factor is decomposed into convex collision pieces (CoACD).
     """
@@ -84,6 +87,8 @@ class Tolerances:
     drive_min_ratio: float = 0.3
     symmetry_eig_rel: float = 0.02
     contact_plane_cos: float = 0.99995
+    sweep_rest_interference_mm: float = 1e-3
+    sweep_box_slack_mm: float = 0.01
     nonconvex_ratio: float = 1.3
 
 

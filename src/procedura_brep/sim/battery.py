@@ -5,8 +5,8 @@
 again, so the mate graph is the reference) and the exported files, which are what gets checked.
 
 B0 model fidelity (``model.xml``) · B1 settle (``model.xml``) · B2 joint sweeps (root welded,
-gravity off; exact-mesh penetration at the reached extremes) · B3 rest-contact scan on exact
-solids · B4 wheeled mobility · B5 URDF re-import · B6 USD validation · B7 random-control smoke run.
+gravity off; exact-solid penetration sampled along every range, spherical cones included) · B3
+rest-contact scan on exact solids · B4 wheeled mobility · B5 URDF re-import · B6 USD validation · B7 random-control smoke run.
 A failed check saves up to 8 frames of its phase under ``renders/sim/``.
 """
 
@@ -58,39 +58,59 @@ def _load(source: CompiledModel | str | Path, out_dir: Path | None
     return model, path, False
 
 
-def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray]]:
-    """B2: every driven joint reaches >= 97% of its range, adds no exact-mesh penetration deeper
-    than ``TOL.sim_penetration_mm``, and its child never leaves its parent by more than
-    ``TOL.sweep_separation_m``."""
+def _ball_traj(m, joint: str, direction_deg: float, tilt_rad: float) -> list[np.ndarray]:
+    """qpos states tilting one ball joint from rest to the given tilt (for frames)."""
     import mujoco
+    from .sweep import tilt_quat
+    qadr = int(m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, joint)])
+    out = []
+    for k in range(1, 9):
+        q = m.qpos0.copy()
+        q[qadr:qadr + 4] = tilt_quat(direction_deg, tilt_rad * k / 8)
+        out.append(q)
+    return out
+
+
+def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray]]:
+    """B2: every driven joint reaches >= 97% of its range, its child never leaves its parent by
+    more than ``TOL.sweep_separation_m`` (MuJoCo sweep), and moving it adds no exact-solid
+    interference thicker than ``TOL.sim_penetration_mm`` anywhere along its range (closed-form
+    samples, :mod:`.sweep`; spherical joints tilted to half and full cone in 8 directions)."""
+    import mujoco
+    from .sweep import SweepScene
     m.opt.gravity[:] = 0.0  # the sweep tests range and collisions; gravity is B1's business
     floor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
     m.geom_contype[floor] = m.geom_conaffinity[floor] = 0  # the root is welded: no floor
+    scene = SweepScene(model, art)
     rows, problems, worst_traj = {}, [], []
     worst_reach, worst_pen, worst_sep = 1.0, 0.0, 0.0
     for j in art.joints:
         if j.type == "spherical":
-            rows[j.name] = {"skipped": "spherical joints are held by servos, not swept"}
+            hit = scene.sweep(j)
+            rows[j.name] = {"cone_deg": float(np.degrees(j.upper)),
+                            "worst_direction_deg": hit.value[0] if hit.value else None,
+                            "worst_tilt_deg": float(np.degrees(hit.value[1])) if hit.value else None,
+                            **hit.as_dict()}
+            worst_pen = max(worst_pen, hit.depth)
+            if hit.depth > TOL.sim_penetration_mm:
+                problems.append(f"spherical joint {j.name!r} drives {hit.pair[0]!r} {hit.depth:.3g} mm "
+                                f"into {hit.pair[1]!r} at {hit.at} (limit {TOL.sim_penetration_mm} mm)")
+                if not worst_traj:
+                    worst_traj = _ball_traj(m, j.name, *hit.value)
             continue
         r = sweep_joint(m, art, j.name)
-        pen, pen_pair = 0.0, None
-        if j.type != "continuous":
-            rest = contact.moved_overlaps(model, art, j, 0.0)
-            for q in (r["qmin"], r["qmax"]):
-                for key, o in contact.moved_overlaps(model, art, j, q).items():
-                    new = o.depth - rest[key].depth
-                    if new > pen:
-                        pen, pen_pair = new, key
+        hit = scene.sweep(j, extra=(r["qmin"], r["qmax"]))
+        pen = hit.depth
         rows[j.name] = {"reach": r["reach"], "qmin": r["qmin"], "qmax": r["qmax"],
-                        "new_penetration_mm": pen, "separation_m": r["separation_m"]}
+                        "separation_m": r["separation_m"], **hit.as_dict()}
         bad = False
         if r["reach"] < TOL.sweep_reach:
             problems.append(f"joint {j.name!r} reached {100 * r['reach']:.1f}% of its range "
                             f"(needs {100 * TOL.sweep_reach:.0f}%)")
             bad = True
         if pen > TOL.sim_penetration_mm:
-            problems.append(f"joint {j.name!r} drives {pen_pair[0]!r} {pen:.3g} mm into "
-                            f"{pen_pair[1]!r} (limit {TOL.sim_penetration_mm} mm)")
+            problems.append(f"joint {j.name!r} drives {hit.pair[0]!r} {pen:.3g} mm into "
+                            f"{hit.pair[1]!r} at {hit.at} (limit {TOL.sim_penetration_mm} mm)")
             bad = True
         if r["separation_m"] > TOL.sweep_separation_m:
             problems.append(f"joint {j.name!r}: child separates {r['separation_m']:.3g} m from parent")
@@ -104,7 +124,7 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
         worst_pen = max(worst_pen, pen)
         worst_sep = max(worst_sep, r["separation_m"])
     measured = {"min_reach": worst_reach, "max_new_penetration_mm": worst_pen,
-                "max_separation_m": worst_sep, "joints": rows}
+                "max_separation_m": worst_sep, "booleans": scene.booleans, "joints": rows}
     limits = {"min_reach": TOL.sweep_reach, "max_new_penetration_mm": TOL.sim_penetration_mm,
               "max_separation_m": TOL.sweep_separation_m}
     return CheckResult("B2", "joint sweeps", not problems, measured, limits,

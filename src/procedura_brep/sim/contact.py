@@ -40,6 +40,11 @@ def overlap(a_name: str, a_shape, b_name: str, b_shape) -> Overlap:
     """Exact interference of two located shapes."""
     if not _boxes_touch(kernel.bbox(a_shape, optimal=False), kernel.bbox(b_shape, optimal=False)):
         return Overlap(a_name, b_name, 0.0, 0.0)
+    return exact_overlap(a_name, a_shape, b_name, b_shape)
+
+
+def exact_overlap(a_name: str, a_shape, b_name: str, b_shape) -> Overlap:
+    """Exact interference of two located shapes, without a box prefilter."""
     from OCP.BRepAlgoAPI import BRepAlgoAPI_Common
     op = BRepAlgoAPI_Common(a_shape, b_shape)
     if not op.IsDone():

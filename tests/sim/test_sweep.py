@@ -1,0 +1,120 @@
+"""B2's exact-solid sweep: sampled ranges catch a part passing through another between the
+extremes; spherical joints are tilted around their cone; seeded golden faults fail B2."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from procedura_brep.articulation import articulate
+from procedura_brep.articulation.tree import Joint
+from procedura_brep.config import TOL
+from procedura_brep.mates.placement import rigid_inverse, rot_x, spherical_tilt_deg, trans
+from procedura_brep.sim import run_battery
+from procedura_brep.sim.sweep import (MAX_SAMPLES, REVOLUTE_STEP_DEG, SPHERE_DIRECTIONS,
+                                      SweepScene, samples)
+
+GOLDEN = Path(__file__).resolve().parents[2] / "golden"
+FRAME = trans(10.0, 20.0, 30.0) @ rot_x(35.0)
+
+
+def _joint(jtype: str, lower: float | None, upper: float | None) -> Joint:
+    return Joint(name="j", type=jtype, parent="p", child="c", frame=FRAME, lower=lower,
+                 upper=upper, effort=1.0, velocity=1.0, mate=None)  # type: ignore[arg-type]
+
+
+def test_revolute_samples_cover_the_range_every_5_degrees():
+    s = samples(_joint("revolute", math.radians(-135), math.radians(135)))
+    q = np.degrees([x.value for x in s])
+    assert q[0] == pytest.approx(-135) and q[-1] == pytest.approx(135)
+    assert len(s) <= MAX_SAMPLES and np.diff(q).max() <= 270 / (MAX_SAMPLES - 1) + 1e-9
+    short = np.degrees([x.value for x in samples(_joint("revolute", 0.0, math.radians(90)))])
+    assert np.diff(short).max() <= REVOLUTE_STEP_DEG + 1e-9
+    # the motion is a rotation about the joint axis through the anchor
+    m = s[0].motion
+    assert np.allclose(m @ FRAME[:, 3], FRAME[:, 3]) and np.allclose(m[:3, :3] @ FRAME[:3, 2], FRAME[:3, 2])
+
+
+def test_spherical_samples_tilt_half_and_full_cone_in_8_directions():
+    cone = math.radians(25.0)
+    s = samples(_joint("spherical", 0.0, cone))
+    assert len(s) == 2 * SPHERE_DIRECTIONS
+    tilts, dirs = [], set()
+    for x in s:
+        local = rigid_inverse(FRAME) @ x.motion @ FRAME  # the delta in the joint frame
+        assert np.allclose(local[:3, 3], 0.0, atol=1e-9)  # about the ball centre
+        tilts.append(spherical_tilt_deg(local))
+        dirs.add(round(x.value[0]))
+        axis = np.array([math.cos(math.radians(x.value[0])), math.sin(math.radians(x.value[0])), 0])
+        assert np.allclose(local[:3, :3] @ axis, axis, atol=1e-9)  # tilt axis in the XY plane
+    assert sorted(set(np.round(tilts, 9))) == pytest.approx([12.5, 25.0])
+    assert dirs == {0, 45, 90, 135, 180, 225, 270, 315}
+
+
+def test_continuous_joints_have_no_samples():
+    assert samples(_joint("continuous", None, None)) == []
+
+
+def _compile(name: str, source: str, worker):
+    from procedura_brep.program import compile_source
+    return compile_source(source, name=name, worker=worker)
+
+
+def _golden(name: str) -> str:
+    path = GOLDEN / name / "program.py"
+    if not path.exists():
+        pytest.skip(f"golden/{name} not present")
+    return path.read_text()
+
+
+@pytest.fixture(scope="module")
+def arm_wide_elbow(worker):
+    src = _golden("arm")
+    assert src.count("limits=(-65, 135)") == 1, "golden/arm's elbow limits changed; update the seed"
+    return _compile("arm", src.replace("limits=(-65, 135)", "limits=(-135, 135)"), worker)
+
+
+def test_elbow_through_the_turret_is_found_between_the_extremes(arm_wide_elbow):
+    art = articulate(arm_wide_elbow)
+    elbow = art.joint("forearm_elbow")
+    scene = SweepScene(arm_wide_elbow, art)
+    hit = scene.sweep(elbow)
+    assert hit.depth > TOL.sim_penetration_mm and "turret" in hit.pair
+    assert -110.0 <= math.degrees(hit.value) <= -70.0, hit.at  # inside the range, not at an end
+    # at both ends of the range the moved parts are clear of the turret again
+    for q in (elbow.lower, elbow.upper):
+        end = scene.sweep(Joint(**{**elbow.__dict__, "lower": q, "upper": q}))
+        assert end.pair is None or "turret" not in end.pair or end.depth <= TOL.sim_penetration_mm
+
+
+@pytest.mark.slow
+def test_arm_elbow_limits_into_the_turret_fail_b2(arm_wide_elbow, tmp_path):
+    report = run_battery(arm_wide_elbow, out_dir=tmp_path, checks=["B2"])
+    b2 = report.check("B2")
+    assert not b2.passed and "'forearm_elbow' drives" in b2.message and "mm into 'turret'" in b2.message
+    assert b2.measured["joints"]["forearm_elbow"]["new_penetration_mm"] > TOL.sim_penetration_mm
+    if b2.frames:
+        assert len(b2.frames) <= 8 and all((tmp_path / f).exists() for f in b2.frames)
+    else:
+        assert any("B2" in n for n in report.notes)
+
+
+def test_vise_neck_wider_than_the_cup_fails_b2_on_the_ball(worker, tmp_path):
+    from procedura_brep.program.edit import set_params
+    model = _compile("vise", set_params(_golden("vise"), {"neck_d": 60.0}), worker)
+    report = run_battery(model, out_dir=tmp_path, checks=["B2"])
+    b2 = report.check("B2")
+    ball = next(j for j in articulate(model).joints if j.type == "spherical")
+    assert not b2.passed and f"spherical joint {ball.name!r} drives" in b2.message
+    row = b2.measured["joints"][ball.name]
+    assert row["new_penetration_mm"] > TOL.sim_penetration_mm and row["samples"] == 16
+    assert row["worst_direction_deg"] in [45.0 * k for k in range(8)]
+    assert row["worst_tilt_deg"] == pytest.approx(row["cone_deg"]) or \
+        row["worst_tilt_deg"] == pytest.approx(row["cone_deg"] / 2)
+    if b2.frames:  # rendering is best effort
+        assert len(b2.frames) <= 8 and all((tmp_path / f).exists() for f in b2.frames)
+    else:
+        assert any("B2" in n for n in report.notes)
