@@ -1,7 +1,8 @@
 """Incremental build benchmark (DESIGN.md section 10; issue 3 item 7).
 
-Generates synthetic programs of 10, 40 and 160 parts (a tree of filleted, bored blocks, each
-seated on its parent by a peg_socket), and measures in one warm worker:
+Generates synthetic programs of 10, 40 and 160 parts (a tower of filleted, bored blocks, each
+seated on the one below by a peg_socket and turned 15 deg, so no two parts overlap), and
+measures in one warm worker:
 
   cold: compile + gates of the whole program with an empty part cache and empty gate caches;
   add:  compile + gates after appending one more part to the already-built program.
@@ -41,13 +42,11 @@ def program(n: int) -> str:
     for i in range(n):
         parts.append(f'@part(detail="major", material="aluminium", description="block {i}")\n'
                      f"def p{i}():\n    return block({i})\n")
-        # each block publishes three seats on its top face; child i sits on parent (i-1)//3
+        # each block sits on the top face of the one before, turned 15 deg about Z
         frames.append(f'frames("p{i}", foot=Location((0, 0, 0)), '
-                      f's0=Location((-12, -12, block_h)), s1=Location((-12, 12, block_h)), '
-                      f's2=Location((12, -12, block_h)))')
+                      f'top=Location((-8, 8, block_h), (0, 0, 15)))')
         if i:
-            parent, slot = (i - 1) // 3, (i - 1) % 3
-            mates.append(f'mate("p{i}.foot", "p{parent}.s{slot}", "peg_socket", nominal="peg_d", '
+            mates.append(f'mate("p{i}.foot", "p{i - 1}.top", "peg_socket", nominal="peg_d", '
                          f'fit="clearance", depth=5)')
     return (HEAD.format(n=n) + "\n".join(parts) + "\n# === frames ===\n" + "\n".join(frames)
             + "\n\n# === assembly ===\n" + "\n".join(mates) + "\n")

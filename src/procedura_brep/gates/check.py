@@ -9,6 +9,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
+from ..config import TOL
 from ..program.model import CompiledModel, Finding
 from .connectivity import analyse, floater_findings
 from .feedback import format_feedback
@@ -87,7 +88,11 @@ def check_model(model: CompiledModel, source: str | None = None) -> CheckReport:
     _, mate_res = mate_gate(model)
     timings["mate"] = time.perf_counter() - t0
     t1 = time.perf_counter()
-    conn = analyse(model)
+    # a mate registered within its band (<= the contact distance) proves its two parts touch
+    touching = frozenset(frozenset((m.child, m.parent)) for m in model.mates
+                         if (mate_res.measured.get(m.name) or {}).get("area_mm2", 0.0) > 0.0
+                         and TOL.registration_band_mm <= TOL.connect_mm)
+    conn = analyse(model, touching=touching)
     cfind = floater_findings(conn)
     conn_res = result("connectivity", cfind, conn.as_dict())
     timings["connectivity"] = time.perf_counter() - t1

@@ -82,8 +82,15 @@ class _UF:
             self.p[max(ra, rb)] = min(ra, rb)
 
 
-def analyse(model: CompiledModel, *, tau: float = TOL.span_tau, contact: float = CONNECT_MM) -> Connectivity:
-    """Components, body and N_vis of ``model``'s shipped geometry."""
+def analyse(model: CompiledModel, *, tau: float = TOL.span_tau, contact: float = CONNECT_MM,
+            touching: frozenset[frozenset[str]] = frozenset()) -> Connectivity:
+    """Components, body and N_vis of ``model``'s shipped geometry.
+
+    Args:
+        touching: part pairs already proven to touch (e.g. by the mate gate's registration
+            area, whose band is within ``contact``); for single-piece parts they are joined
+            without an exact distance query.
+    """
     geos = [part_geometry(p) for p in model.parts]
     pieces: list[tuple[int, Piece]] = [(g, pc) for g, geo in enumerate(geos) for pc in geo.pieces]
     uf = _UF(len(pieces))
@@ -100,9 +107,10 @@ def analyse(model: CompiledModel, *, tau: float = TOL.span_tau, contact: float =
                 continue
             if gi == gj and pi.solid == pj.solid:
                 uf.union(i, j)  # shells of one solid (e.g. an inner void) are one body
-            elif vertices_touch(geos[gi], geos[gj], boxes[i], boxes[j], contact) and \
-                    len(geos[gi].pieces) == 1 and len(geos[gj].pieces) == 1:
-                uf.union(i, j)  # single-piece parts: a shared vertex position proves contact
+            elif len(geos[gi].pieces) == 1 and len(geos[gj].pieces) == 1 and (
+                    frozenset((geos[gi].name, geos[gj].name)) in touching
+                    or vertices_touch(geos[gi], geos[gj], boxes[i], boxes[j], contact)):
+                uf.union(i, j)  # single-piece parts: a registered mate or a shared vertex proves contact
             elif solid_distance(geos[gi], pi.solid, geos[gj], pj.solid) <= contact:
                 uf.union(i, j)
     groups: dict[int, list[Piece]] = {}

@@ -8,6 +8,7 @@ build123d's multi-second import.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Any
 
 #: build123d names a program must not see: anything that reads or writes files or meshes.
@@ -17,10 +18,15 @@ _LAZY = {"compile_source": ".sandbox", "Worker": ".sandbox", "CompileOptions": "
          "parse_sections": ".sections", "Sections": ".sections", "set_params": ".edit"}
 
 
+@lru_cache(maxsize=1)
+def _build123d_names() -> tuple[str, ...]:
+    import build123d
+    return tuple(n for n in build123d.__all__ if not any(s in n for s in _DENY_SUBSTRINGS))
+
+
 def build123d_names() -> list[str]:
     """The build123d names re-exported to programs (build123d's ``__all__`` minus file I/O)."""
-    import build123d
-    return [n for n in build123d.__all__ if not any(s in n for s in _DENY_SUBSTRINGS)]
+    return list(_build123d_names())
 
 
 def __getattr__(name: str) -> Any:
@@ -36,8 +42,7 @@ def __getattr__(name: str) -> Any:
         import math
         return math
     if not name.startswith("_"):
-        names = build123d_names()
-        if name in names:
+        if name in _build123d_names():
             import build123d
             return getattr(build123d, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
