@@ -14,7 +14,6 @@ opposite-facing triangles within ``TOL.contact_mm`` are intersected exactly in t
 from __future__ import annotations
 
 import itertools
-import math
 from typing import Any
 
 import numpy as np

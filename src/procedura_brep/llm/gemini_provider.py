@@ -5,12 +5,12 @@ from __future__ import annotations
 import time
 from typing import Any
 
-from .base import CONNECT_TIMEOUT_S, DEFAULT_MAX_RETRIES, DEFAULT_TIMEOUT_S, Provider
+from .base import Provider
 from .errors import ConfigError
 from .keys import GEMINI_KEY_VARS, resolve_key
 from .messages import Message, Reply, Request, Usage
 from .network import ensure_network_allowed
-from .retry import RetryPolicy, Retryable, call_with_retries
+from .retry import RetryPolicy, Retryable, call_with_retries, retry_settings
 from .sdk_errors import classify_sdk_error
 
 __all__ = ["GeminiProvider", "gemini_config", "parse_gemini_response", "to_gemini_contents"]
@@ -103,11 +103,7 @@ class GeminiProvider(Provider):
             raise ConfigError("gemini: no model name; write gemini:MODEL, e.g. gemini:gemini-2.5-flash")
         self.endpoint = (base_url or DEFAULT_ENDPOINT).rstrip("/")
         ensure_network_allowed(self.endpoint)
-        self.timeout_s = float(timeout_s or DEFAULT_TIMEOUT_S)
-        self.policy = policy or RetryPolicy(
-            max_retries=DEFAULT_MAX_RETRIES if max_retries is None else max_retries,
-            connect_timeout_s=min(CONNECT_TIMEOUT_S, self.timeout_s),
-        )
+        self.timeout_s, self.policy = retry_settings(timeout_s, max_retries, policy)
         if client is None:
             key = resolve_key("gemini", GEMINI_KEY_VARS)
             try:

@@ -15,12 +15,12 @@ import time
 from typing import Any
 from urllib.parse import urlsplit
 
-from .base import CONNECT_TIMEOUT_S, DEFAULT_MAX_RETRIES, DEFAULT_TIMEOUT_S, Provider
+from .base import CONNECT_TIMEOUT_S, Provider
 from .errors import ConfigError, ProviderError, one_line
 from .keys import key_vars_for_openai, resolve_key, resolve_openai_base_url
 from .messages import Message, Reply, Request, Usage
 from .network import ensure_network_allowed, is_loopback
-from .retry import RetryPolicy, Retryable, call_with_retries, parse_retry_after
+from .retry import RetryPolicy, Retryable, call_with_retries, retry_settings, parse_retry_after
 
 __all__ = ["MISSING_SDK_MESSAGE", "OpenAIProvider", "parse_chat_completion", "to_openai_messages"]
 
@@ -170,12 +170,8 @@ class OpenAIProvider(Provider):
         key_vars, required = key_vars_for_openai(self.base_url)
         self.api_key = api_key or resolve_key("openai", key_vars, required=required)
         self.endpoint = f"{self.base_url}/chat/completions"
-        self.timeout_s = float(timeout_s or DEFAULT_TIMEOUT_S)
+        self.timeout_s, self.policy = retry_settings(timeout_s, max_retries, policy)
         connect = min(CONNECT_TIMEOUT_S, self.timeout_s)
-        self.policy = policy or RetryPolicy(
-            max_retries=DEFAULT_MAX_RETRIES if max_retries is None else max_retries,
-            connect_timeout_s=connect,
-        )
         self._sdk = _import_openai()
         if client is None:
             client = self._sdk.OpenAI(

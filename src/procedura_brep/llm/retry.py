@@ -73,6 +73,17 @@ class RetryPolicy:
     unreachable_deadline_s: float = 14.0
 
 
+def retry_settings(timeout_s: float | None, max_retries: int | None,
+                   policy: "RetryPolicy | None" = None) -> tuple[float, "RetryPolicy"]:
+    """(reply timeout, retry policy) of a network provider from its constructor arguments."""
+    from .base import CONNECT_TIMEOUT_S, DEFAULT_MAX_RETRIES, DEFAULT_TIMEOUT_S
+    timeout = float(timeout_s or DEFAULT_TIMEOUT_S)
+    return timeout, policy or RetryPolicy(
+        max_retries=DEFAULT_MAX_RETRIES if max_retries is None else max_retries,
+        connect_timeout_s=min(CONNECT_TIMEOUT_S, timeout),
+    )
+
+
 def parse_retry_after(value: str | None) -> float | None:
     """Parse a ``Retry-After`` header (seconds or an HTTP date).
 

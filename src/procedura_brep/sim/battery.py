@@ -159,7 +159,6 @@ def run_battery(source: CompiledModel | str | Path, *, out_dir: str | Path | Non
     """
     import mujoco
     from ..export.mjcf import build_mjcf, wheel_joints
-    from ..export.urdf import ROBOT_FILES  # noqa: F401  (import check)
     wanted = tuple(c for c in ALL_CHECKS if checks is None or c in set(checks))
     model, root, _ = _load(source, Path(out_dir) if out_dir else None)
     art = articulate(model)
