@@ -139,3 +139,9 @@ def test_doctor_reports_every_component():
     assert res.exit_code == (1 if "MISSING" in res.output else 0)
     res = invoke("doctor", "--model", "nonsense:model")
     assert "nonsense" in res.output and res.exit_code == 1
+
+
+def test_export_ap242(tmp_path):
+    res = invoke("export", str(LAMP), "-o", str(tmp_path), "--formats", "step", "--step-schema", "AP242")
+    assert res.exit_code == 0, res.output
+    assert "AP242_MANAGED_MODEL_BASED_3D_ENGINEERING" in (tmp_path / "model.step").read_text()

@@ -8,6 +8,7 @@ Errors are one line on stderr, never a traceback (``-v`` logs details).
 from __future__ import annotations
 
 import functools
+from enum import Enum
 import logging
 from pathlib import Path
 from typing import Annotated, Any, Callable, Optional
@@ -20,6 +21,13 @@ app = typer.Typer(
     help="Text prompt -> editable CAD assembly: build123d parts joined by typed, checked mates.")
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
+
+
+class StepSchema(str, Enum):
+    """STEP application protocols the exporter writes."""
+
+    AP214 = "AP214"
+    AP242 = "AP242"
 
 
 def _err(msg: str) -> None:
@@ -83,9 +91,10 @@ def _formats(text: str | None) -> tuple[str, ...]:
 
 
 def _do_build(program: Path, out: Path, formats: tuple[str, ...], source: str | None = None,
-              gates: bool = True, simulate: bool = False) -> int:
+              gates: bool = True, simulate: bool = False, step_schema: str = "AP214") -> int:
     from .pipeline import build
-    res = build(program, out, formats=formats, source=source, gates=gates, simulate=simulate)
+    res = build(program, out, formats=formats, source=source, gates=gates, simulate=simulate,
+                step_schema=step_schema)
     if res.ok:
         n = len(res.model.parts) if res.model else 0
         t = res.report.get("timings", {}).get("total_s", 0.0)
@@ -108,11 +117,13 @@ def build(
     no_gates: Annotated[bool, typer.Option("--no-gates", help="Skip the verification gates.")] = False,
     simulate: Annotated[bool, typer.Option("--simulate", help="Also run the MuJoCo battery and "
                                                               "record it in report.json.")] = False,
+    step_schema: Annotated[StepSchema, typer.Option("--step-schema", help="STEP application "
+                                                                          "protocol.")] = StepSchema.AP214,
 ) -> None:
     """Compile PROGRAM in the sandbox, place its parts and write the run directory."""
     source = _read(program)
     raise typer.Exit(_do_build(program, out, _formats(formats), source=source, gates=not no_gates,
-                               simulate=simulate))
+                               simulate=simulate, step_schema=step_schema.value))
 
 
 @app.command()
@@ -122,11 +133,13 @@ def export(
     out: Annotated[Path, typer.Option("-o", "--out", help="Directory for the exports.")],
     formats: Annotated[Optional[str], typer.Option(help="Comma list of step,obj,glb,usd,urdf,mjcf "
                                                         "(default: all).")] = None,
+    step_schema: Annotated[StepSchema, typer.Option("--step-schema", help="STEP application "
+                                                                          "protocol.")] = StepSchema.AP214,
 ) -> None:
     """Write the export bundle of PROGRAM (no gates, no report)."""
     from .export.bundle import write_bundle
     model = _compile(program)
-    files = write_bundle(model, out, formats=_formats(formats))
+    files = write_bundle(model, out, formats=_formats(formats), step_schema=step_schema.value)
     typer.echo(f"wrote {len(files)} files -> {out}")
     for rel in sorted(files):
         typer.echo(f"  {rel}")
@@ -269,6 +282,14 @@ def _print_check(data: dict[str, Any]) -> None:
     from rich.console import Console
     from rich.table import Table
     con = Console()
+    tp = Table(title=f"parts: {data['model']}")
+    for col in ("part", "triangles", "errors", "verdict"):
+        tp.add_column(col)
+    for name, tris in data["triangles_per_part"].items():
+        errs = [f for f in data["findings"] if f.get("part") == name and f.get("severity") == "error"]
+        tp.add_row(name, str(tris), "; ".join(f.get("code", "") for f in errs),
+                   "[red]FAIL[/]" if errs else "[green]pass[/]")
+    con.print(tp)
     t = Table(title=f"mate gate: {data['model']}")
     for col in ("mate", "area mm^2", "limit", "penetration mm", "limit", "verdict"):
         t.add_column(col)

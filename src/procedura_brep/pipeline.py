@@ -155,7 +155,7 @@ def _warm_exports() -> None:
 
 def build(program: Path, out_dir: Path, *, formats: tuple[str, ...] | None = ALL_FORMATS,
           name: str | None = None, gates: bool = True, source: str | None = None,
-          simulate: bool = False) -> BuildResult:
+          simulate: bool = False, step_schema: str = "AP214") -> BuildResult:
     """Compile ``program`` and write the run directory ``out_dir``.
 
     Args:
@@ -166,6 +166,7 @@ def build(program: Path, out_dir: Path, *, formats: tuple[str, ...] | None = ALL
         gates: run the verification gates and record them in the report.
         source: the program text (default: read ``program``).
         simulate: also run the MuJoCo battery and record it in ``report.json``.
+        step_schema: ``AP214`` or ``AP242``.
     """
     t0 = time.perf_counter()
     name = name or program_name(program)
@@ -192,7 +193,8 @@ def build(program: Path, out_dir: Path, *, formats: tuple[str, ...] | None = ALL
     t = time.perf_counter()
     from .export.bundle import write_bundle
     bundle_t: dict[str, float] = {}
-    written = write_bundle(model, out_dir, formats=fmts, timings=bundle_t)
+    written = write_bundle(model, out_dir, formats=fmts, timings=bundle_t,
+                           step_schema=step_schema)  # type: ignore[arg-type]
     result.files.update({rel: path for rel, path in written.items()})
     timings.update({f"export_{k}_s": v for k, v in bundle_t.items()})
     timings["export_s"] = time.perf_counter() - t

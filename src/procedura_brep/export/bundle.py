@@ -15,6 +15,7 @@ import os
 import time
 from collections.abc import Iterable
 from pathlib import Path
+from typing import Literal
 
 from ..articulation import articulate, link_masses
 from ..program.model import CompiledModel
@@ -50,7 +51,8 @@ def parse_formats(text: str | Iterable[str] | None) -> tuple[str, ...]:
 
 
 def bundle_bytes(model: CompiledModel, *, formats: str | Iterable[str] | None = None,
-                 timings: dict[str, float] | None = None) -> dict[str, bytes]:
+                 timings: dict[str, float] | None = None,
+                 step_schema: Literal["AP214", "AP242"] = "AP214") -> dict[str, bytes]:
     """``{relative path: bytes}`` for the requested formats (pure; nothing is written)."""
     fmts = parse_formats(formats)
     out: dict[str, bytes] = {}
@@ -63,12 +65,8 @@ def bundle_bytes(model: CompiledModel, *, formats: str | Iterable[str] | None = 
     for fmt in fmts:
         t = time.perf_counter()
         if fmt == "step":
-            try:
-                from .step import step_bytes
-            except ImportError:
-                log.warning("STEP exporter unavailable; model.step not written")
-                continue
-            out["model.step"] = step_bytes(model)
+            from .step import step_bytes
+            out["model.step"] = step_bytes(model, schema=step_schema)
         elif fmt == "obj":
             from .obj import obj_files
             out.update(obj_files(model))
@@ -90,7 +88,8 @@ def bundle_bytes(model: CompiledModel, *, formats: str | Iterable[str] | None = 
 
 def write_bundle(model: CompiledModel, out_dir: str | os.PathLike[str], *,
                  formats: str | Iterable[str] | None = None,
-                 timings: dict[str, float] | None = None) -> dict[str, Path]:
+                 timings: dict[str, float] | None = None,
+                 step_schema: Literal["AP214", "AP242"] = "AP214") -> dict[str, Path]:
     """Write the requested formats (default: all) under ``out_dir``.
 
     Returns:
@@ -101,7 +100,7 @@ def write_bundle(model: CompiledModel, out_dir: str | os.PathLike[str], *,
         ValueError: an unknown format name.
     """
     root = Path(out_dir)
-    files = bundle_bytes(model, formats=formats, timings=timings)
+    files = bundle_bytes(model, formats=formats, timings=timings, step_schema=step_schema)
     written = {rel: _write(root / rel, data) for rel, data in files.items()}
     log.info("wrote %d files to %s", len(written), root)
     return written
