@@ -45,6 +45,7 @@ POLICY = [
     ("env_key", inject("import os\nk = os.environ['OPENAI_API_KEY']"), "import os"),
     ("fork_bomb", inject("import os\nwhile True:\n    os.fork()"), "import os"),
     ("private_attr", inject("x = Box(1, 1, 1)._dim"), "'_dim'"),
+    ("font_file", inject("t = Text('x', 5, font_path='/etc/passwd')"), "'font_path'"),
 ]
 
 

@@ -11,8 +11,9 @@ from __future__ import annotations
 from functools import lru_cache
 from typing import Any
 
-#: build123d names a program must not see: anything that reads or writes files or meshes.
-_DENY_SUBSTRINGS = ("import", "export", "Export", "Mesher", "Import")
+#: build123d names a program must not see: anything that reads or writes files or meshes,
+#: or registers fonts from the file system.
+_DENY_SUBSTRINGS = ("import", "export", "Export", "Mesher", "Import", "FontManager", "fonts")
 _API = ("part", "frames", "mate")
 _LAZY = {"compile_source": ".sandbox", "Worker": ".sandbox", "CompileOptions": ".sandbox",
          "parse_sections": ".sections", "Sections": ".sections", "set_params": ".edit"}

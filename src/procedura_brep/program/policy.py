@@ -9,7 +9,8 @@ Rules (DESIGN.md section 8):
     ``quit``, ``memoryview``, ``type``, ``super``, ``object``, ``classmethod``, ``staticmethod``,
     ``property``: these names may not appear at all;
   * no assignment to attributes (``obj.attr = ...``): a program may not monkeypatch the kernel;
-  * no ``global``/``nonlocal``, ``async`` code, or ``del`` of attributes.
+  * no ``global``/``nonlocal``, ``async`` code, or ``del`` of attributes;
+  * no keyword argument that names a file (``font_path=``, ``file=`` ...).
 The dynamic half (resource limits, scratch dir, stripped environment, restricted builtins) is
 in :mod:`procedura_brep.program.sandbox` and :mod:`procedura_brep.program.runtime`.
 """
@@ -26,6 +27,8 @@ FORBIDDEN_NAMES = frozenset({
     "object", "classmethod", "staticmethod", "property", "dir", "id", "hasattr",
 })
 ALLOWED_IMPORTS = {"math"}
+#: Keyword arguments that name files (e.g. ``Text(..., font_path=...)``): programs touch no files.
+FORBIDDEN_KEYWORDS = frozenset({"font_path", "file", "filename", "file_name"})
 PROGRAM_MODULE = "procedura_brep.program"
 
 
@@ -79,8 +82,9 @@ def _check_node(node: ast.AST) -> None:
         _deny(node, "global/nonlocal statements")
     elif isinstance(node, (ast.AsyncFor, ast.AsyncWith, ast.Await)):
         _deny(node, "async code")
-    elif isinstance(node, ast.keyword) and node.arg and node.arg.startswith("_"):
-        _deny(node, f"the keyword {node.arg!r}")
+    elif isinstance(node, ast.keyword) and node.arg and (
+            node.arg.startswith("_") or node.arg in FORBIDDEN_KEYWORDS):
+        _deny(node, f"the keyword {node.arg!r} (programs touch no files)")
     elif isinstance(node, ast.Constant) and isinstance(node.value, str) and "__" in node.value:
         _deny(node, "string literals containing '__'")
 
