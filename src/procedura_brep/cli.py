@@ -374,7 +374,7 @@ def generate(
     except LLMError as exc:
         _err(str(exc))
         raise typer.Exit(EXIT_FAIL) from None
-    cost = res.usage.get("total_cost_usd")
+    cost = (res.usage.get("total") or {}).get("cost_usd")
     tail = f", cost ${cost:.4f}" if isinstance(cost, (int, float)) else ""
     if res.status == "ok":
         typer.echo(f"generated and built in {res.attempts} call(s) -> {out}{tail}")

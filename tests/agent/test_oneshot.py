@@ -86,3 +86,30 @@ def test_exchange_provider_drives_generate(tmp_path, worker):
     t.join()
     assert res.exit_code == 0, res.output
     assert json.loads((tmp_path / "run" / "report.json").read_text())["status"] == "ok"
+
+
+def test_max_cost_stops_cleanly_and_keeps_the_work(tmp_path, worker, monkeypatch):
+    """A priced scripted model: the first (broken) attempt spends $1, the cap is $0.5, so the
+    second call is refused; the run ends cleanly with its history and report kept."""
+    from procedura_brep.llm import ScriptedProvider, Usage, register_provider
+
+    broken = json.loads(TAPE.read_text().splitlines()[0])["reply"]["text"]
+    lamp = json.loads(TAPE.read_text().splitlines()[1])["reply"]["text"]
+
+    class Pricey(ScriptedProvider):
+        prefix = "pricey"
+
+    register_provider("pricey", lambda model, **kw: Pricey(
+        model, replies=[broken, lamp], usage=Usage(input_tokens=1_000_000)))
+    prices = tmp_path / "prices.toml"
+    prices.write_text('["pricey:m"]\ninput = 1.0\ncached_input = 0.5\noutput = 2.0\n')
+    monkeypatch.setenv("PROCEDURA_BREP_PRICES", str(prices))
+    out = tmp_path / "run"
+    res = CliRunner().invoke(app, ["generate", "a desk lamp", "-o", str(out), "--model", "pricey:m",
+                                   "--max-cost", "0.5", "--formats", "step"])
+    assert res.exit_code == 1 and "budget_exceeded" in res.output, res.output
+    report = json.loads((out / "report.json").read_text())
+    assert report["status"] == "budget_exceeded" and report["attempts"] == 2
+    assert report["usage"]["total"]["cost_usd"] == pytest.approx(1.0)
+    assert report["usage"]["max_cost_usd"] == 0.5
+    assert (out / "history" / "001.py").exists() and (out / "program.py").exists()
