@@ -91,7 +91,8 @@ def test_exchange_provider_drives_generate(tmp_path, worker):
 def test_max_cost_stops_cleanly_and_keeps_the_work(tmp_path, worker, monkeypatch):
     """A priced scripted model: the first (broken) attempt spends $1, the cap is $0.5, so the
     second call is refused; the run ends cleanly with its history and report kept."""
-    from procedura_brep.llm import ScriptedProvider, Usage, register_provider
+    from procedura_brep.llm import ScriptedProvider, Usage
+    from procedura_brep.llm import base as llm_base
 
     broken = json.loads(TAPE.read_text().splitlines()[0])["reply"]["text"]
     lamp = json.loads(TAPE.read_text().splitlines()[1])["reply"]["text"]
@@ -99,8 +100,8 @@ def test_max_cost_stops_cleanly_and_keeps_the_work(tmp_path, worker, monkeypatch
     class Pricey(ScriptedProvider):
         prefix = "pricey"
 
-    register_provider("pricey", lambda model, **kw: Pricey(
-        model, replies=[broken, lamp], usage=Usage(input_tokens=1_000_000)))
+    monkeypatch.setitem(llm_base._REGISTRY, "pricey", lambda model, **kw: Pricey(
+        model, replies=[broken, lamp], usage=Usage(input_tokens=1_000_000)))  # removed after the test
     prices = tmp_path / "prices.toml"
     prices.write_text('["pricey:m"]\ninput = 1.0\ncached_input = 0.5\noutput = 2.0\n')
     monkeypatch.setenv("PROCEDURA_BREP_PRICES", str(prices))
