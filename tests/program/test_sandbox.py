@@ -46,6 +46,10 @@ POLICY = [
     ("fork_bomb", inject("import os\nwhile True:\n    os.fork()"), "import os"),
     ("private_attr", inject("x = Box(1, 1, 1)._dim"), "'_dim'"),
     ("font_file", inject("t = Text('x', 5, font_path='/etc/passwd')"), "'font_path'"),
+    ("generator_frames", inject("def g():\n    yield gen.gi_frame.f_back\ngen = g()\n"
+                                "b = next(gen).f_globals['builtins']"), "frames, code and globals"),
+    ("frame_walk", inject("def g():\n    yield 1\nfr = g().gi_frame"), "'gi_frame'"),
+    ("class_mro", inject("m = Box.mro()"), "'mro'"),
 ]
 
 

@@ -9,6 +9,8 @@ Rules (DESIGN.md section 8):
     ``quit``, ``memoryview``, ``type``, ``super``, ``object``, ``classmethod``, ``staticmethod``,
     ``property``: these names may not appear at all;
   * no assignment to attributes (``obj.attr = ...``): a program may not monkeypatch the kernel;
+  * no attribute that reaches frames, code or globals (``gi_frame``, ``f_back``, ``f_globals``,
+    ``tb_frame``, ``co_code``, ``mro`` ...);
   * no ``global``/``nonlocal``, ``async`` code, or ``del`` of attributes;
   * no keyword argument that names a file (``font_path=``, ``file=`` ...).
 The dynamic half (resource limits, scratch dir, stripped environment, restricted builtins) is
@@ -27,6 +29,15 @@ FORBIDDEN_NAMES = frozenset({
     "object", "classmethod", "staticmethod", "property", "dir", "id", "hasattr",
 })
 ALLOWED_IMPORTS = {"math"}
+#: Attributes that lead from ordinary objects to frames, code or globals (and so to the
+#: interpreter): generator/coroutine frames, frame and traceback links, code objects.
+FORBIDDEN_ATTRIBUTES = frozenset({
+    "gi_frame", "gi_code", "gi_yieldfrom", "gi_running", "cr_frame", "cr_code", "cr_await",
+    "cr_origin", "ag_frame", "ag_code", "ag_await", "f_back", "f_globals", "f_locals",
+    "f_builtins", "f_code", "f_trace", "f_lasti", "tb_frame", "tb_next", "tb_lasti",
+    "co_code", "co_consts", "co_names", "co_varnames", "func_globals", "func_code", "mro",
+    "format_map", "with_traceback",
+})
 #: Keyword arguments that name files (e.g. ``Text(..., font_path=...)``): programs touch no files.
 FORBIDDEN_KEYWORDS = frozenset({"font_path", "file", "filename", "file_name"})
 PROGRAM_MODULE = "procedura_brep.program"
@@ -68,6 +79,8 @@ def _check_node(node: ast.AST) -> None:
     elif isinstance(node, ast.Attribute):
         if node.attr.startswith("_"):
             _deny(node, f"the attribute {node.attr!r} (attributes starting with '_' are reserved)")
+        if node.attr in FORBIDDEN_ATTRIBUTES:
+            _deny(node, f"the attribute {node.attr!r} (frames, code and globals are off limits)")
         if isinstance(node.ctx, (ast.Store, ast.Del)):
             _deny(node, f"assigning to the attribute {node.attr!r} (no monkeypatching)")
     elif isinstance(node, (ast.FunctionDef, ast.ClassDef, ast.AsyncFunctionDef)):
