@@ -59,3 +59,19 @@ def cap():
         assert rebuilt(m) == {"cap", "post"}
     finally:
         w.close()
+
+
+def test_module_constants_and_helpers_are_in_the_key(tmp_path):
+    """A constant outside the params (read by a part) and a helper class both invalidate."""
+    w = Worker(cache_dir=tmp_path / "cache")
+    try:
+        src = LAMP.replace("# === helpers ===", "# === helpers ===\narm_len = 90\n") \
+                  .replace("return Box(90, 14, 10", "return Box(arm_len, 14, 10")
+        a = w.compile(src)
+        b = w.compile(src.replace("arm_len = 90", "arm_len = 40"))
+        assert "arm" in rebuilt(b)
+        lo_a, hi_a = kernel.bbox(a.part("arm").local_shape())
+        lo_b, hi_b = kernel.bbox(b.part("arm").local_shape())
+        assert hi_a[0] - lo_a[0] > hi_b[0] - lo_b[0] + 40
+    finally:
+        w.close()

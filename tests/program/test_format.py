@@ -123,3 +123,15 @@ def test_located_part_keeps_its_local_geometry_and_step_names(worker):
     assert lo[2] == pytest.approx(-2.0, abs=1e-6) and hi[2] == pytest.approx(8.0, abs=1e-6)
     text = step_bytes(m).decode("ascii")
     assert re.findall(r"PRODUCT\(\s*'([^']*)'", text) == ["model", "base", "post", "arm"]
+
+
+def test_param_expressions_are_numbers_params_and_math(worker):
+    ok = LAMP.replace("base_t = 12.0   # mm", "base_t = base_w / 10 + math.sqrt(4.0) * 0   # mm")
+    assert worker.compile(ok).ok
+    bad = LAMP.replace("base_t = 12.0   # mm", "base_t = Box(1, 1, 12).volume   # mm")
+    m = worker.compile(bad)
+    assert m.findings[0].code == "format" and m.findings[0].line == line_of(bad, "base_t = Box")
+    assert "params hold only numbers, earlier params, arithmetic and math" in m.findings[0].message
+    for expr in ("Box(1, 1, 12)", "later_param * 2", "'12'"):
+        m = worker.compile(LAMP.replace("base_t = 12.0   # mm", f"base_t = {expr}   # mm"))
+        assert not m.ok and m.findings[0].code == "format", expr

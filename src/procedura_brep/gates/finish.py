@@ -30,8 +30,14 @@ def finish_gate(model: CompiledModel | None = None, *, source: str | None = None
     if model is None:
         if source is None:
             raise ValueError("finish_gate needs a compiled model or the program source; got neither")
+        from ..errors import CompileError
         from ..program import compile_source
-        model = compile_source(source)
+        try:
+            model = compile_source(source)
+        except CompileError as exc:  # killed, timed out or crashed: a refusal, not an exception
+            fs = exc.findings or [Finding("compile", str(exc))]
+            refusal = Finding("finish-refused", f"the final program did not compile: {exc}")
+            return [refusal, *fs], result("finish", [refusal, *fs], {"n_vis": None, "offenders": []})
     if not model.ok:
         errs = [f for f in model.findings if f.severity == "error"]
         refusal = Finding("finish-refused", f"the final program does not compile cleanly "

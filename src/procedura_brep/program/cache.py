@@ -1,9 +1,10 @@
 """The per-part compile cache: keys, and a content-addressed store of final part solids.
 
 A part's key hashes everything its final solid depends on: its function's source, the source
-of every program function it calls (transitively), the values of the params those read, and
-for every mate that touches it the mate's type, nominal value, fit, options and this part's
-frame. Editing one part, or adding a part, changes only the keys of that part and of the
+of every program function it calls (transitively), the values of the params and other plain
+module-level constants those read, the text of the header and helpers sections (which covers
+program classes and objects built there), and for every mate that touches it the mate's type,
+nominal value, fit, options and this part's frame. Editing one part, or adding a part, changes only the keys of that part and of the
 partners whose features change; every other part is loaded from the cache instead of rebuilt.
 
 The store is a folder of ``<key>.brep`` files (OCCT binary BRep). The sandbox child only reads
@@ -24,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from .registry import Registry
+from .sections import Sections
 
 
 @lru_cache(maxsize=1)
@@ -41,6 +43,19 @@ def _function_lines(source_lines: list[str], code: types.CodeType) -> str:
     lines = [ln for _, _, ln in code.co_lines() if ln]
     last = max(lines, default=code.co_firstlineno)
     return "\n".join(source_lines[code.co_firstlineno - 1:last])
+
+
+_PLAIN = (int, float, bool, str, bytes, type(None))
+
+
+def _plain(value: Any) -> bool:
+    if isinstance(value, _PLAIN):
+        return True
+    if isinstance(value, (tuple, list, frozenset, set)):
+        return all(_plain(v) for v in value)
+    if isinstance(value, dict):
+        return all(_plain(k) and _plain(v) for k, v in value.items())
+    return False
 
 
 def _walk(code: types.CodeType, glb: dict[str, Any], params: dict[str, Any], source_lines: list[str],
@@ -61,15 +76,21 @@ def _walk(code: types.CodeType, glb: dict[str, Any], params: dict[str, Any], sou
         if isinstance(fn_code, types.CodeType) and fn_code.co_filename == "<program>":
             out.append(f"fn {n}:\n{_function_lines(source_lines, fn_code)}")
             _walk(fn_code, glb, params, source_lines, seen, out)
+        elif n in glb and _plain(glb[n]):
+            out.append(f"value {n}={glb[n]!r}")  # a module-level constant outside the params
 
 
-def part_keys(source: str, reg: Registry, params: dict[str, Any],
+def part_keys(source: str, sections: Sections, reg: Registry, params: dict[str, Any],
               mates: list[dict[str, Any]], glb: dict[str, Any]) -> dict[str, str]:
     """The cache key of every declared part (see the module docstring)."""
     lines = source.splitlines()
+    # Anything else a part may read (program classes, objects built at module level) is covered
+    # conservatively: the module's text outside the params, parts, frames and assembly sections.
+    context = "\n".join(lines[:sections.starts["params"] - 1]
+                        + lines[sections.starts["helpers"]:sections.starts["parts"] - 1])
     keys: dict[str, str] = {}
     for name, decl in reg.parts.items():
-        parts = [_engine_digest(), f"part {name}"]
+        parts = [_engine_digest(), f"part {name}", context]
         code = decl.fn.__code__
         parts.append(_function_lines(lines, code))
         _walk(code, glb, params, lines, set(), parts)
@@ -85,11 +106,16 @@ def part_keys(source: str, reg: Registry, params: dict[str, Any],
     return keys
 
 
-def load(cache_dir: str | os.PathLike[str], key: str) -> bytes | None:
-    """The cached BRep for ``key``, or None."""
-    path = Path(cache_dir) / f"{key}.brep"
+def load(cache_dir: str | os.PathLike[str] | int, key: str) -> bytes | None:
+    """The cached BRep for ``key``, or None. ``cache_dir`` may be an open directory fd (the
+    sandbox child reads the cache through one after dropping privileges)."""
+    name = f"{key}.brep"
     try:
-        return path.read_bytes()
+        if isinstance(cache_dir, int):
+            fd = os.open(name, os.O_RDONLY, dir_fd=cache_dir)
+            with os.fdopen(fd, "rb") as fh:
+                return fh.read()
+        return (Path(cache_dir) / name).read_bytes()
     except OSError:
         return None
 
@@ -98,10 +124,12 @@ def store(cache_dir: str | os.PathLike[str], key: str, data: bytes) -> None:
     """Store ``data`` under ``key`` atomically (safe with concurrent writers)."""
     folder = Path(cache_dir)
     folder.mkdir(parents=True, exist_ok=True)
+    folder.chmod(0o755)
     target = folder / f"{key}.brep"
     if target.exists():
         return
     fd, tmp = tempfile.mkstemp(dir=folder, suffix=".tmp")
+    os.fchmod(fd, 0o644)  # readable by the unprivileged sandbox child
     with os.fdopen(fd, "wb") as fh:
         fh.write(data)
     os.replace(tmp, target)

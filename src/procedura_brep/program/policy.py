@@ -10,7 +10,10 @@ Rules (DESIGN.md section 8):
     ``property``: these names may not appear at all;
   * no assignment to attributes (``obj.attr = ...``): a program may not monkeypatch the kernel;
   * no attribute that reaches frames, code or globals (``gi_frame``, ``f_back``, ``f_globals``,
-    ``tb_frame``, ``co_code``, ``mro`` ...);
+    ``tb_frame``, ``co_code``, ``mro``, and ``str.format``, whose fields read attributes by
+    name: use f-strings);
+  * no ``match`` statements (class patterns read attributes by name);
+  * from the program API only ``import *``; no imported name starting with ``_``;
   * no ``global``/``nonlocal``, ``async`` code, or ``del`` of attributes;
   * no keyword argument that names a file (``font_path=``, ``file=`` ...).
 The dynamic half (resource limits, scratch dir, stripped environment, restricted builtins) is
@@ -36,7 +39,7 @@ FORBIDDEN_ATTRIBUTES = frozenset({
     "cr_origin", "ag_frame", "ag_code", "ag_await", "f_back", "f_globals", "f_locals",
     "f_builtins", "f_code", "f_trace", "f_lasti", "tb_frame", "tb_next", "tb_lasti",
     "co_code", "co_consts", "co_names", "co_varnames", "func_globals", "func_code", "mro",
-    "format_map", "with_traceback",
+    "format", "format_map", "with_traceback",
 })
 #: Keyword arguments that name files (e.g. ``Text(..., font_path=...)``): programs touch no files.
 FORBIDDEN_KEYWORDS = frozenset({"font_path", "file", "filename", "file_name"})
@@ -61,16 +64,32 @@ def _deny(node: ast.AST, why: str) -> None:
     raise PolicyViolation(f"not allowed in a program: {why}", line=getattr(node, "lineno", None))
 
 
+def _reserved(name: str | None) -> bool:
+    return bool(name) and (name.startswith("_") or name in FORBIDDEN_NAMES)  # type: ignore[union-attr]
+
+
 def _check_node(node: ast.AST) -> None:
     if isinstance(node, ast.Import):
         for alias in node.names:
-            if alias.name not in ALLOWED_IMPORTS:
+            if alias.name not in ALLOWED_IMPORTS or _reserved(alias.asname):
                 _deny(node, f"import {alias.name} (programs may import only math and "
                             f"{PROGRAM_MODULE})")
     elif isinstance(node, ast.ImportFrom):
         if node.module not in ALLOWED_IMPORTS | {PROGRAM_MODULE} or node.level:
             _deny(node, f"from {node.module} import ... (programs may import only math and "
                         f"{PROGRAM_MODULE})")
+        names = [a.name for a in node.names]
+        if node.module == PROGRAM_MODULE and names != ["*"]:
+            _deny(node, f"from {PROGRAM_MODULE} import {', '.join(names)} (write "
+                        f"`from {PROGRAM_MODULE} import *`)")
+        for alias in node.names:
+            if _reserved(alias.name if alias.name != "*" else None) or _reserved(alias.asname):
+                _deny(node, f"importing the name {alias.name!r}")
+    elif isinstance(node, (ast.Match, ast.match_case, ast.MatchClass, ast.MatchAs,
+                           ast.MatchMapping, ast.MatchStar)):
+        _deny(node, "match statements (their class patterns read attributes by name)")
+    elif isinstance(node, ast.ExceptHandler) and _reserved(node.name):
+        _deny(node, f"the name {node.name!r}")
     elif isinstance(node, ast.Name):
         if node.id.startswith("_"):
             _deny(node, f"the name {node.id!r} (names starting with '_' are reserved)")
@@ -106,22 +125,35 @@ _PARAM_NODES = (ast.Expression, ast.Constant, ast.Name, ast.Load, ast.BinOp, ast
                 ast.operator, ast.unaryop, ast.Call, ast.Attribute, ast.Tuple)
 
 
-def check_param_expr(expr: str, *, line: int | None = None) -> None:
-    """A param expression may use numbers, other params, arithmetic and ``math.<fn>`` only."""
+def check_param_expr(expr: str, *, line: int | None = None, known: set[str] | None = None) -> None:
+    """A param expression may use numbers, earlier params, arithmetic and ``math.<fn>(...)`` only.
+
+    Args:
+        expr: the expression text.
+        line: its program line, for the message.
+        known: the params defined before it (None: any name is accepted as a param).
+    """
+    def bad(why: str) -> None:
+        raise ProgramFormatError(f"param expression {expr!r}: {why}; params hold only numbers, "
+                                 f"earlier params, arithmetic and math functions", line=line)
+
     try:
         tree = ast.parse(expr, mode="eval")
     except SyntaxError:
         raise ProgramFormatError(f"param expression {expr!r} is not valid Python", line=line) from None
     for node in ast.walk(tree):
         if not isinstance(node, _PARAM_NODES):
-            raise ProgramFormatError(f"param expression {expr!r} may use only numbers, params, "
-                                     f"arithmetic and math functions", line=line)
-        if isinstance(node, ast.Name) and node.id.startswith("_"):
-            raise ProgramFormatError(f"param expression {expr!r} uses a reserved name", line=line)
+            bad(f"{type(node).__name__} is not allowed")
+        if isinstance(node, ast.Name) and node.id != "math" and (
+                node.id.startswith("_") or (known is not None and node.id not in known)):
+            bad(f"{node.id!r} is not an earlier param")
         if isinstance(node, ast.Attribute) and not (
                 isinstance(node.value, ast.Name) and node.value.id == "math"
                 and not node.attr.startswith("_")):
-            raise ProgramFormatError(f"param expression {expr!r}: only math.<name> attributes",
-                                     line=line)
+            bad("only math.<name> attributes")
+        if isinstance(node, ast.Call) and not (
+                isinstance(node.func, ast.Attribute) and isinstance(node.func.value, ast.Name)
+                and node.func.value.id == "math"):
+            bad("only math functions may be called")
         if isinstance(node, ast.Constant) and isinstance(node.value, str):
-            raise ProgramFormatError(f"param expression {expr!r}: params are numbers", line=line)
+            bad("strings are not allowed")

@@ -35,7 +35,12 @@ SAFE_BUILTINS = (
 
 def _guarded_import(name: str, globals_: Any = None, locals_: Any = None, fromlist: Any = (),
                     level: int = 0) -> Any:
-    if level == 0 and (name in policy.ALLOWED_IMPORTS or name == policy.PROGRAM_MODULE):
+    names = tuple(fromlist or ())
+    if level == 0 and any(n.startswith("_") for n in names if n != "*"):
+        raise ImportError("programs may not import names starting with '_'")
+    if level == 0 and name == policy.PROGRAM_MODULE and names in ((), ("*",)):
+        return builtins.__import__(name, globals_, locals_, fromlist, level)
+    if level == 0 and name in policy.ALLOWED_IMPORTS:
         return builtins.__import__(name, globals_, locals_, fromlist, level)
     raise ImportError(f"programs may import only math and {policy.PROGRAM_MODULE}, not {name!r}")
 
@@ -98,13 +103,18 @@ class _Build:
         self.findings.append(Finding(code, message, **kw))
 
 
-def compile_program(source: str, *, name: str = "model", cache_dir: str | None = None) -> CompiledModel:
+def compile_program(source: str, *, name: str = "model",
+                    cache_dir: str | int | None = None) -> CompiledModel:
     """Compile ``source`` in this process. Call only inside the sandbox child."""
     b = _Build(source, name)
     t0 = time.perf_counter()
     try:
         sections = parse_sections(source)
         policy.check(source)
+        known: set[str] = set()
+        for p in sections.params.values():
+            policy.check_param_expr(p.expr, line=p.line, known=known)
+            known.add(p.name)
     except ProgramFormatError as exc:
         b.fail("format", str(exc), line=exc.line)
         return CompiledModel(name, {}, [], [], b.findings, b.timings)
@@ -126,7 +136,7 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | None =
     if any(f.severity == "error" for f in b.findings):
         return CompiledModel(name, params, [], [], b.findings, b.timings)
     mates = _resolve_mates(b, reg, params)
-    keys = cache.part_keys(source, reg, params, mates, glb)
+    keys = cache.part_keys(source, sections, reg, params, mates, glb)
     hits = _load_cached(b, keys, cache_dir)
     _eval_parts(b, reg, hits)
     _apply_features(b, reg, mates, hits)
@@ -135,9 +145,9 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | None =
     return _serialise(b, reg, params, mates, time.perf_counter() - t0, keys)
 
 
-def _load_cached(b: _Build, keys: dict[str, str], cache_dir: str | None) -> set[str]:
+def _load_cached(b: _Build, keys: dict[str, str], cache_dir: str | int | None) -> set[str]:
     """Load the final solids of parts whose key is in the cache; return their names."""
-    if not cache_dir:
+    if cache_dir is None or cache_dir == "":
         return set()
     from build123d import Solid, Compound
 
@@ -252,7 +262,7 @@ def _place(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]]) -> No
     The parent's ``RigidJoint`` sits at ``F_parent * Delta(home)`` and the child's at ``F_child``
     (static mates); a kinematic mate's child is moved to ``home`` by the mate's own build123d
     joint (RevoluteJoint / LinearJoint / BallJoint with its limits). The numpy closed form
-    ``T_parent * F_parent * Delta * F_child^-1`` must agree to 1e-9 mm / rad.
+    ``T_parent * F_parent * Delta * F_child^-1`` must agree within ``TOL.placement_*``.
     """
     import copy
 
@@ -322,8 +332,9 @@ def _place_by_joint(carriers: dict[str, Any], reg: registry.Registry, m: dict[st
         b.fail("joint", f"mate {decl.name}: build123d refused the joint: {exc}", mate=decl.name,
                line=decl.line)
         return
+    from ..config import TOL
     dist, ang = pl.residual(loc_matrix(child.location), solved)
-    if dist > 1e-9 * max(1.0, float(np.abs(solved[:3, 3]).max())) or ang > 1e-9:
+    if dist > TOL.placement_mm or ang > TOL.placement_rad:
         b.fail("joint", f"mate {decl.name}: build123d's joint placement differs from the closed "
                         f"form by {dist:.3g} mm, {ang:.3g} rad (internal error)", mate=decl.name,
                line=decl.line, value=dist)

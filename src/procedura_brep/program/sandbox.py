@@ -75,6 +75,8 @@ class Worker:
 
     def _ensure_ready(self) -> subprocess.Popen[str]:
         self.start()
+        os.makedirs(self.cache_dir, exist_ok=True)  # (re)made lazily after close()
+        os.chmod(self.cache_dir, 0o755)  # the sandbox child may run as an unprivileged user
         assert self._proc is not None and self._proc.stdout is not None
         if not self._ready:
             line = self._proc.stdout.readline()
@@ -91,7 +93,6 @@ class Worker:
         self._proc = None
         if self._own_cache:
             shutil.rmtree(self.cache_dir, ignore_errors=True)
-            os.makedirs(self.cache_dir, exist_ok=True)
 
     def compile(self, source: str, options: CompileOptions = CompileOptions()) -> CompiledModel:
         """Compile ``source`` in a fresh sandboxed child.

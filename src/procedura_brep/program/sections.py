@@ -121,23 +121,3 @@ def parse_sections(source: str) -> Sections:
         comment = text[text.index("#"):] if "#" in text[node.value.end_col_offset:] else ""
         sec.params[name] = Param(name, expr, node.lineno, comment)
     return sec
-
-
-def eval_params(sec: Sections) -> dict[str, float | int | bool | str]:
-    """Evaluate the params in order (numbers, earlier params and ``math`` only).
-
-    Each expression is checked by :func:`procedura_brep.program.policy.check_param_expr` first.
-    """
-    import math
-
-    from .policy import check_param_expr
-
-    values: dict[str, object] = {}
-    for p in sec.params.values():
-        check_param_expr(p.expr, line=p.line)
-        try:
-            values[p.name] = eval(compile(ast.parse(p.expr, mode="eval"), "<param>", "eval"),  # noqa: S307
-                                  {"__builtins__": {}, "math": math}, dict(values))
-        except Exception as exc:
-            raise ProgramFormatError(f"param {p.name} = {p.expr}: {exc}", line=p.line) from None
-    return values  # type: ignore[return-value]

@@ -20,7 +20,20 @@ import time
 from typing import Any
 
 
-def _limit_child(limits: dict[str, Any], scratch: str) -> None:
+#: The unprivileged account a root-run worker's children switch to (Debian's ``nobody``).
+NOBODY = "nobody"
+#: RLIMIT_NPROC after the switch: room for OCCT's and BLAS's threads, not for a fork bomb.
+NOBODY_NPROC = 256
+
+
+def _limit_child(limits: dict[str, Any], scratch: str, cache_dir: str | None) -> int | None:
+    """Apply every limit to this (child) process; returns an fd of the part cache, if any.
+
+    When the worker runs as root (CI, containers), the child also drops to ``nobody``: the
+    scratch dir is handed over first, and the cache folder stays readable through an fd opened
+    before the switch, so the program can read neither root-only files (such as the calling
+    process's ``/proc/<pid>/environ``) nor write outside world-writable places.
+    """
     os.setsid()
     cpu = int(limits["cpu_s"])
     resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu + 1))
@@ -28,10 +41,6 @@ def _limit_child(limits: dict[str, Any], scratch: str) -> None:
     resource.setrlimit(resource.RLIMIT_FSIZE, (limits["file_size_bytes"],) * 2)
     resource.setrlimit(resource.RLIMIT_NOFILE, (limits["open_files"],) * 2)
     resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
-    try:
-        resource.setrlimit(resource.RLIMIT_NPROC, (0, 0))  # not enforced for root; AST blocks fork
-    except (ValueError, OSError):
-        pass
     os.chdir(scratch)
     os.environ.clear()
     os.environ.update({"HOME": scratch, "TMPDIR": scratch, "PATH": "/nonexistent"})
@@ -42,16 +51,40 @@ def _limit_child(limits: dict[str, Any], scratch: str) -> None:
     os.dup2(log, 1)
     os.dup2(log, 2)
     os.closerange(3, 4096)
+    cache_fd = None
+    if cache_dir:
+        try:
+            cache_fd = os.open(cache_dir, os.O_RDONLY | os.O_DIRECTORY)
+        except OSError:
+            cache_fd = None
+    if os.geteuid() == 0:
+        _drop_root(scratch)
+    return cache_fd
+
+
+def _drop_root(scratch: str) -> None:
+    import pwd
+    try:
+        entry = pwd.getpwnam(NOBODY)
+        uid, gid = entry.pw_uid, entry.pw_gid
+    except KeyError:
+        uid = gid = 65534
+    os.chown(scratch, uid, gid)
+    os.chown(os.path.join(scratch, "child.log"), uid, gid)
+    os.setgroups([])
+    os.setgid(gid)
+    os.setuid(uid)
+    # nobody's processes and threads together (the kernel's threads count): bounds a fork bomb
+    resource.setrlimit(resource.RLIMIT_NPROC, (NOBODY_NPROC, NOBODY_NPROC))
 
 
 def _child(req: dict[str, Any]) -> None:
     scratch = req["scratch"]
-    _limit_child(req["limits"], scratch)
+    cache_fd = _limit_child(req["limits"], scratch, req.get("cache_dir"))
     from .model import Finding, to_json
     from .runtime import compile_program
     try:
-        model = compile_program(req["source"], name=req.get("name", "model"),
-                                cache_dir=req.get("cache_dir"))
+        model = compile_program(req["source"], name=req.get("name", "model"), cache_dir=cache_fd)
         payload = to_json(model)
     except MemoryError:
         payload = {"fatal": Finding("memory", "the program ran out of memory (address-space limit "
@@ -59,10 +92,10 @@ def _child(req: dict[str, Any]) -> None:
     except RecursionError:
         payload = {"fatal": Finding("recursion", "the program recursed too deeply (limit "
                                     f"{req['limits']['recursion']})").as_dict()}
-    tmp = os.path.join(scratch, "result.json.tmp")
-    with open(tmp, "w", encoding="utf-8") as fh:
+    # relative to the scratch dir (the cwd): its ancestors may not be searchable by nobody
+    with open("result.json.tmp", "w", encoding="utf-8") as fh:
         json.dump(payload, fh)
-    os.replace(tmp, os.path.join(scratch, "result.json"))
+    os.replace("result.json.tmp", "result.json")
 
 
 def _run_one(req: dict[str, Any]) -> dict[str, Any]:
