@@ -28,11 +28,15 @@ ALL_FORMATS = ("step", "obj", "glb", "usd", "urdf", "mjcf")
 
 
 def program_name(path: Path) -> str:
-    """A stable [a-z0-9_] name: the folder of ``program.py`` files, else the file stem."""
+    """A stable identifier ``[a-z_][a-z0-9_]*`` (valid in USD paths, MJCF and URDF): the folder of
+    ``program.py`` files, else the file stem; ``model_`` is prefixed when it would start with a
+    digit, and ``model`` stands in for an empty name."""
     stem = path.parent.name if path.name == "program.py" and path.parent.name else path.stem
     text = unicodedata.normalize("NFKD", stem).encode("ascii", "ignore").decode("ascii").lower()
     text = re.sub(r"[^a-z0-9_]+", "_", text).strip("_")
-    return text or "model"
+    if not text:
+        return "model"
+    return f"model_{text}" if text[0].isdigit() else text
 
 
 def write_atomic(path: Path, data: bytes | str) -> None:

@@ -172,3 +172,51 @@ def test_rpy_exact_at_gimbal_lock(pitch, other):
         roll, p, yaw = rpy(r)
     assert p == pytest.approx(pitch, abs=1e-12) and yaw == 0.0
     assert np.abs(rpy_matrix(roll, p, yaw) - r).max() <= 1e-12
+
+
+def test_glb_is_metres_y_up(lamp, bundle):
+    """glTF 2.0: metres, +Y up. The GLB's bounds (node transforms applied) are the world box
+    mapped (x, y, z) mm -> (x, z, -y) m."""
+    import trimesh
+    out, _ = bundle
+    scene = trimesh.load(io.BytesIO((out / "model.glb").read_bytes()), file_type="glb")
+    v = np.vstack([p.mesh().vertices for p in lamp.parts])
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    want_lo = np.array([lo[0], lo[2], -hi[1]]) * 1e-3
+    want_hi = np.array([hi[0], hi[2], -lo[1]]) * 1e-3
+    assert np.abs(scene.bounds[0] - want_lo).max() <= 1e-6
+    assert np.abs(scene.bounds[1] - want_hi).max() <= 1e-6
+
+
+@pytest.mark.parametrize(("path", "name"), [("2vise/program.py", "model_2vise"),
+                                            ("my-vise/program.py", "my_vise"),
+                                            ("Grüne Zange.py", "grune_zange"),
+                                            ("---/program.py", "model")])
+def test_program_name_is_an_identifier(path, name):
+    import re
+    from procedura_brep.pipeline import program_name
+    got = program_name(Path(path))
+    assert got == name and re.fullmatch(r"[a-z_][a-z0-9_]*", got)
+
+
+def test_usd_root_is_valid_for_any_model_name(lamp):
+    """A name that is not a USD identifier (a leading digit, a dash) still exports."""
+    import dataclasses
+    from pxr import Sdf
+    from procedura_brep.export.usd import usd_stage
+    stage = usd_stage(dataclasses.replace(lamp, name="2-lamp"))
+    root = stage.GetDefaultPrim()
+    assert root and Sdf.Path.IsValidIdentifier(root.GetName())
+    assert stage.GetPrimAtPath(f"/{root.GetName()}/joints/arm_pivot").IsValid()
+
+
+def test_usd_wheelless_root_welded_to_world(bundle):
+    """The lamp has no wheels: like model.xml, its USD root is welded (world FixedJoint), and the
+    articulation root stays on an ancestor of that joint."""
+    from pxr import Usd, UsdPhysics
+    out, _ = bundle
+    stage = Usd.Stage.Open(str(out / "model.usda"))
+    j = UsdPhysics.FixedJoint(stage.GetPrimAtPath("/lamp/joints/base__world"))
+    assert j and j.GetBody0Rel().GetTargets() == []
+    assert [str(t) for t in j.GetBody1Rel().GetTargets()] == ["/lamp/base"]
+    assert stage.GetPrimAtPath("/lamp").HasAPI(UsdPhysics.ArticulationRootAPI)

@@ -147,6 +147,7 @@ def test_message_conversion(png):
 
 
 class RateLimitError(Exception):
+    __module__ = "anthropic._exceptions"  # an SDK's exception (ours would be raised as is)
     status_code = 429
     response = SimpleNamespace(headers={"retry-after": "0.01"})
 
@@ -171,6 +172,7 @@ def test_anthropic_with_fake_client_retries_and_counts_cache(network_on):
 
 def test_sdk_auth_error_is_not_retried(network_on):
     class AuthenticationError(Exception):
+        __module__ = "anthropic._exceptions"
         status_code = 401
 
     def create(**kwargs):
@@ -183,7 +185,7 @@ def test_sdk_auth_error_is_not_retried(network_on):
 
 def test_gemini_with_fake_client(network_on):
     class APITimeoutError(Exception):
-        pass
+        __module__ = "httpx"
 
     answers = [APITimeoutError("slow"), SimpleNamespace(text="g", usage_metadata=SimpleNamespace(
         prompt_token_count=50, cached_content_token_count=20, candidates_token_count=4, thoughts_token_count=6))]
@@ -222,3 +224,21 @@ def test_errors_share_a_base_and_are_one_line():
     assert str(err) == "a b c" and isinstance(err, LLMError)
     with pytest.raises(ValueError, match="not PNG"):
         Image(b"GIF89a")
+
+
+def test_own_bug_is_not_wrapped_as_provider_error(network_on):
+    def create(**kwargs):
+        raise KeyError("our own bug")
+
+    p = AnthropicProvider("claude-x", client=SimpleNamespace(messages=SimpleNamespace(create=create)), policy=FAST)
+    with pytest.raises(KeyError, match="our own bug"):
+        p.complete(Request("plan", 0, "", (Message.user("x"),)))
+
+
+def test_sdk_providers_close_their_clients(network_on):
+    closed = []
+    client = SimpleNamespace(close=lambda: closed.append(1))
+    AnthropicProvider("claude-x", client=client, policy=FAST).close()
+    GeminiProvider("gemini-x", client=client, policy=FAST).close()
+    GeminiProvider("gemini-x", client=SimpleNamespace(), policy=FAST).close()  # no close: fine
+    assert closed == [1, 1]

@@ -100,3 +100,16 @@ def test_rover_wheels_off_the_ground_fail_b4(rover, tmp_path):
     report = run_battery(lifted, out_dir=tmp_path, checks=["B4"], frames=False)
     b4 = report.check("B4")
     assert not b4.passed and not b4.skipped and "wheel" in b4.message
+
+
+def test_no_out_dir_leaves_no_temp_dir(lamp):
+    """Without out_dir the bundle goes to a temp dir that is removed afterwards (and the report
+    says that no frames could be kept)."""
+    import tempfile
+    from procedura_brep.sim.battery import TEMP_PREFIX
+    tmp = Path(tempfile.gettempdir())
+    before = set(tmp.glob(f"{TEMP_PREFIX}*"))
+    report = run_battery(lamp, checks=("B0",))
+    assert report.check("B0").passed
+    assert set(tmp.glob(f"{TEMP_PREFIX}*")) == before
+    assert any("no failure frames" in n for n in report.notes)

@@ -68,3 +68,25 @@ def test_golden_step_products_are_part_names(name, worker, tmp_path_factory):
     text = (out / "model.step").read_text(errors="replace")
     products = re.findall(r"PRODUCT\(\s*'([^']*)'", text)
     assert sorted(set(products) - {model.name}) == sorted(p.name for p in model.parts)
+
+
+@pytest.mark.parametrize("name", PROGRAMS)
+def test_golden_usd_base_matches_mjcf(name, worker, tmp_path_factory):
+    """A wheel-less golden's USD root is welded to the world by one FixedJoint (as model.xml
+    welds it); the rover's base is free in both."""
+    from pxr import Usd, UsdPhysics
+    from procedura_brep.export.mjcf import wheel_joints
+    model, out = _built(name, worker, tmp_path_factory)
+    art = articulate(model)
+    stage = Usd.Stage.Open(str(out / "model.usda"))
+    fixed = [p for p in stage.Traverse() if p.IsA(UsdPhysics.FixedJoint)]
+    import mujoco
+    m = mujoco.MjModel.from_xml_path(str(out / "model.xml"))
+    free_in_mjcf = any(m.jnt_type[i] == mujoco.mjtJoint.mjJNT_FREE for i in range(m.njnt))
+    if wheel_joints(model, art):
+        assert not fixed and free_in_mjcf
+    else:
+        assert [p.GetName() for p in fixed] == [f"{art.root.name}__world"] and not free_in_mjcf
+        j = UsdPhysics.FixedJoint(fixed[0])
+        assert j.GetBody0Rel().GetTargets() == []
+        assert [t.name for t in j.GetBody1Rel().GetTargets()] == [art.root.name]

@@ -55,7 +55,9 @@ def symmetry_axis(mesh: Mesh) -> dict[str, Any]:
     return {**out, "kind": "none", "axis": None}
 
 
-def _boxes_touch(a, b, margin: float) -> bool:
+def boxes_touch(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray],
+                margin: float) -> bool:
+    """Whether boxes ``a`` and ``b`` (each ``(lo, hi)``) meet or lie within ``margin`` (mm)."""
     (alo, ahi), (blo, bhi) = a, b
     return all(alo[i] <= bhi[i] + margin and blo[i] <= ahi[i] + margin for i in range(3))
 
@@ -127,7 +129,7 @@ def mates_evidence(model: CompiledModel) -> dict[str, Any]:
     parts = {n: {"symmetry": symmetry_axis(m)} for n, m in meshes.items()}
     contacts = []
     for a, b in itertools.combinations(meshes, 2):
-        if not _boxes_touch(boxes[a], boxes[b], TOL.contact_mm):
+        if not boxes_touch(boxes[a], boxes[b], TOL.contact_mm):
             continue
         area = contact_area(meshes[a], meshes[b])
         if area > 0:

@@ -196,8 +196,6 @@ def articulate(model: CompiledModel) -> Articulation:
             raise ArticulationError(
                 f"kinematic mate {m.name!r} joins {m.child!r} and {m.parent!r}, which static mates "
                 f"already fuse into link {c!r}: a loop; remove one of the mates")
-        if c == root_name:
-            c, p = p, c  # a joint declared towards the root: flip so the root stays the root
         if c in joints_by_child:
             raise ArticulationError(
                 f"link {c!r} has two parent joints ({joints_by_child[c].name!r} and {m.name!r}): "

@@ -10,7 +10,6 @@ CoACD decomposition (see :data:`COACD_MAX_HULLS`).
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -28,14 +27,6 @@ COACD_THRESHOLD = 0.08
 MIN_COMPONENT_FACES = 4
 
 _COLLISION: dict[str, list[Mesh]] = {}
-
-
-@dataclass(frozen=True)
-class PartMesh:
-    """A part's world mesh (mm) and its name."""
-
-    name: str
-    mesh: Mesh
 
 
 def part_mesh(part: CompiledPart) -> Mesh:

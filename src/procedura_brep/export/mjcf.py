@@ -41,6 +41,11 @@ log = logging.getLogger(__name__)
 TIMESTEP = 0.002
 #: Natural frequency of every position servo, Hz (gain = M_jj * (2 pi f)^2).
 SERVO_HZ = 8.0
+#: Angular natural frequency of every servo, rad/s (2 pi SERVO_HZ).
+SERVO_OMEGA = 2 * np.pi * SERVO_HZ
+#: Smallest mate velocity (rad/s or m/s) a velocity servo's stall gain divides by (a zero
+#: velocity would make the gain infinite).
+MIN_VELOCITY = 1e-9
 #: Damping ratio of every servo.
 SERVO_ZETA = 1.0
 #: A wheel's axis has at most this |z| component (it rolls on a horizontal floor).
@@ -168,14 +173,14 @@ def _build(model: CompiledModel, art: Articulation, masses: dict[str, MassProps]
         kp = (gains or {}).get(j.name, 1.0)
         if j.type == "spherical":
             # a ball joint's range is "0 cone": only the upper value (the cone half-angle) counts
-            jt = body.add_joint(name=j.name, type=mujoco.mjtJoint.mjJNT_BALL, pos=[0, 0, 0],
-                                range=[0.0, float(j.upper)], limited=mujoco.mjtLimited.mjLIMITED_TRUE)
+            body.add_joint(name=j.name, type=mujoco.mjtJoint.mjJNT_BALL, pos=[0, 0, 0],
+                           range=[0.0, float(j.upper)], limited=mujoco.mjtLimited.mjLIMITED_TRUE)
             for k, ax in enumerate("xyz"):  # hold servos about the joint frame's x, y, z
                 act = spec.add_actuator(name=f"{j.name}__{ax}", target=j.name,
                                         trntype=mujoco.mjtTrn.mjTRN_JOINT)
                 act.gear = [1.0 if i == k else 0.0 for i in range(6)]
-                omega = 2 * np.pi * SERVO_HZ
-                act.set_to_position(kp=float(kp * omega**2), kv=float(2 * SERVO_ZETA * kp * omega))
+                act.set_to_position(kp=float(kp * SERVO_OMEGA**2),
+                                    kv=float(2 * SERVO_ZETA * kp * SERVO_OMEGA))
                 act.ctrlrange = [-float(j.upper), float(j.upper)]
                 act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
                 act.forcerange = [-j.effort, j.effort]
@@ -193,9 +198,9 @@ def _build(model: CompiledModel, art: Articulation, masses: dict[str, MassProps]
             jt.range = [float(j.lower), float(j.upper)]
             act = spec.add_actuator(name=j.name, target=j.name,
                                     trntype=mujoco.mjtTrn.mjTRN_JOINT)
-            omega = 2 * np.pi * SERVO_HZ
             m_jj = kp  # gains hold M_jj for position servos
-            act.set_to_position(kp=float(m_jj * omega**2), kv=float(2 * SERVO_ZETA * m_jj * omega))
+            act.set_to_position(kp=float(m_jj * SERVO_OMEGA**2),
+                                kv=float(2 * SERVO_ZETA * m_jj * SERVO_OMEGA))
             act.ctrlrange = [float(j.lower), float(j.upper)]
         act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
         act.forcerange = [-j.effort, j.effort]
@@ -222,14 +227,14 @@ def build_mjcf(model: CompiledModel, *, art: Articulation | None = None,
     mujoco.mj_forward(m, d)
     mass_matrix = np.zeros((m.nv, m.nv))
     mujoco.mj_fullM(m, d, mass_matrix)
-    omega = 2 * np.pi * SERVO_HZ
     gains: dict[str, float] = {}
     for j in art.joints:
         jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j.name)
         dof = int(m.jnt_dofadr[jid])
         mjj = float(mass_matrix[dof, dof])
         if j.type == "continuous":  # velocity servo: stall torque = effort at full speed
-            gains[j.name] = max(2 * SERVO_ZETA * mjj * omega, j.effort / max(j.velocity, 1e-9))
+            gains[j.name] = max(2 * SERVO_ZETA * mjj * SERVO_OMEGA,
+                              j.effort / max(j.velocity, MIN_VELOCITY))
         elif j.type == "spherical":  # the largest of its three diagonal inertias
             gains[j.name] = float(np.max(np.diag(mass_matrix)[dof:dof + 3]))
         else:

@@ -3,11 +3,16 @@
 Layout (flat links, as UsdPhysics expects for articulations)::
 
     /<model>                      Xform, default prim, PhysicsArticulationRootAPI
+                                  (named Tf.MakeValidIdentifier(model.name))
       /Looks/<material>           UsdPreviewSurface per material used
       /<link>                     Xform at the link's world frame, RigidBodyAPI + MassAPI
         /<part>                   Mesh (exact visual, link-local), bound to its material
         /<part>__collision        Xform holding convex pieces (CollisionAPI + MeshCollisionAPI)
       /joints/<mate>              RevoluteJoint / PrismaticJoint / SphericalJoint
+      /joints/<root link>__world  FixedJoint (body1 = root link, body0 empty = world), only when
+                                  the assembly has no wheels (:func:`.mjcf.wheel_joints`): the
+                                  same fixed base as ``model.xml``; the ArticulationRootAPI on
+                                  its ancestor ``/<model>`` makes it a fixed-base articulation
 
 USD joint axes can only be X, Y or Z, so each joint frame is the mate frame rotated so that its
 +X is the mate's +Z (``localRot0/1``, :data:`Z_TO_X`); the axis is ``"X"``. Revolute limits are
@@ -23,6 +28,7 @@ from ..articulation.mass import MassProps, link_masses
 from ..articulation.tree import Articulation, articulate
 from ..program.model import CompiledModel
 from .meshes import collision_pieces, part_mesh, to_local_m
+from .mjcf import quat, wheel_joints
 
 #: Rotation taking the joint's X axis onto the mate frame's Z axis (R_y(-90 deg)).
 Z_TO_X = np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])
@@ -32,10 +38,10 @@ DRIVE_DAMPING_PER_EFFORT = 1.0
 
 
 def _quatf(r: np.ndarray):
+    """Gf.Quatf of a rotation matrix (via :func:`.mjcf.quat`, (w, x, y, z))."""
     from pxr import Gf
-    from scipy.spatial.transform import Rotation
-    x, y, z, w = Rotation.from_matrix(r).as_quat()
-    return Gf.Quatf(float(w), Gf.Vec3f(float(x), float(y), float(z)))
+    w, x, y, z = quat(r)
+    return Gf.Quatf(w, Gf.Vec3f(x, y, z))
 
 
 def _matrix(m_mm: np.ndarray):
@@ -71,14 +77,14 @@ def _material(stage, root: str, name: str):
 def usd_stage(model: CompiledModel, *, art: Articulation | None = None,
               masses: dict[str, MassProps] | None = None):
     """An in-memory Usd.Stage of the articulated model."""
-    from pxr import Gf, Usd, UsdGeom, UsdPhysics, UsdShade
+    from pxr import Gf, Tf, Usd, UsdGeom, UsdPhysics, UsdShade
     art = art or articulate(model)
     masses = masses or link_masses(model, art)
     stage = Usd.Stage.CreateInMemory()
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
     UsdGeom.SetStageMetersPerUnit(stage, 1.0)
     UsdPhysics.SetStageKilogramsPerUnit(stage, 1.0)
-    root = f"/{model.name}"
+    root = f"/{Tf.MakeValidIdentifier(model.name)}"
     top = UsdGeom.Xform.Define(stage, root)
     stage.SetDefaultPrim(top.GetPrim())
     UsdPhysics.Scene.Define(stage, f"{root}/physicsScene")
@@ -107,6 +113,16 @@ def usd_stage(model: CompiledModel, *, art: Articulation | None = None,
                 UsdPhysics.CollisionAPI.Apply(c.GetPrim())
                 UsdPhysics.MeshCollisionAPI.Apply(c.GetPrim()).CreateApproximationAttr("convexHull")
     UsdGeom.Scope.Define(stage, f"{root}/joints")
+    if not wheel_joints(model, art):  # fixed base, as model.xml welds the root
+        fixed = UsdPhysics.FixedJoint.Define(stage, f"{root}/joints/{art.root.name}__world")
+        fixed.CreateBody1Rel().SetTargets([f"{root}/{art.root.name}"])
+        # body0 empty = the world; the joint sits at the root link's origin, whose world pose
+        # is the link frame
+        pos0 = art.root.frame[:3, 3] / 1000.0
+        fixed.CreateLocalPos0Attr(Gf.Vec3f(*[float(c) for c in pos0]))
+        fixed.CreateLocalRot0Attr(_quatf(art.root.frame[:3, :3]))
+        fixed.CreateLocalPos1Attr(Gf.Vec3f(0.0, 0.0, 0.0))
+        fixed.CreateLocalRot1Attr(Gf.Quatf(1.0, Gf.Vec3f(0.0, 0.0, 0.0)))
     for j in art.joints:
         jpath = f"{root}/joints/{j.name}"
         if j.type == "spherical":
@@ -156,7 +172,8 @@ def usda_text(model: CompiledModel, *, art: Articulation | None = None,
 
 
 def usd_joint_frames(stage) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """``{joint name: (world anchor m, world unit axis)}`` read back from a stage (via body0)."""
+    """``{joint name: (world anchor m, world unit axis)}`` read back from a stage (via body0);
+    joints anchored to the world (no body0, the fixed base) are left out."""
     from pxr import Usd, UsdGeom, UsdPhysics
     out: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     cache = UsdGeom.XformCache(Usd.TimeCode.Default())
@@ -164,7 +181,10 @@ def usd_joint_frames(stage) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         if not prim.IsA(UsdPhysics.Joint):
             continue
         j = UsdPhysics.Joint(prim)
-        body0 = stage.GetPrimAtPath(j.GetBody0Rel().GetTargets()[0])
+        targets = j.GetBody0Rel().GetTargets()
+        if not targets:  # anchored to the world (the fixed base): not a mate
+            continue
+        body0 = stage.GetPrimAtPath(targets[0])
         world = np.array(cache.GetLocalToWorldTransform(body0)).T  # column-vector convention
         pos = np.array(j.GetLocalPos0Attr().Get(), dtype=float)
         q = j.GetLocalRot0Attr().Get()

@@ -130,6 +130,12 @@ class AnthropicProvider(Provider):
             )
         self._client = client
 
+    def close(self) -> None:
+        """Close the SDK client's connection pool (clients without ``close`` are left alone)."""
+        close = getattr(self._client, "close", None)
+        if callable(close):
+            close()
+
     def _attempt(self, kwargs: dict[str, Any]) -> tuple[str, Usage]:
         try:
             resp = self._client.messages.create(**kwargs)

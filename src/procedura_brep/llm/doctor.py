@@ -77,8 +77,9 @@ def _endpoint_check(prefix: str, model: str, base_url: str | None) -> Check:
     elif prefix == "scripted":
         return Check("endpoint", True, "scripted test double")
     else:
-        url = base_url or ("https://api.anthropic.com" if prefix == "anthropic"
-                           else "https://generativelanguage.googleapis.com")
+        from . import anthropic_provider, gemini_provider
+        module = anthropic_provider if prefix == "anthropic" else gemini_provider
+        url = base_url or module.DEFAULT_ENDPOINT
     if not network_allowed() and not is_loopback(url):
         return Check("endpoint", False, f"{url}: network model calls are disabled",
                      f"unset {ENV_NO_NETWORK}")
@@ -131,18 +132,22 @@ def check_provider(
         provider = get_provider(model, base_url=base_url, timeout_s=timeout_s, max_retries=0)
     except LLMError as exc:
         return [*checks, Check("provider", False, str(exc))]
-    if not ping:
-        return [*checks, Check("reachability", True, "not checked (ask for a ping to make a 1-token call)",
-                               optional=True)]
-    request = Request("doctor", 0, "", (Message.user("Reply with: ok"),), Settings(max_tokens=1))
-    start = time.monotonic()
     try:
-        provider.complete(request)
-        detail = f"answered a 1-token call in {time.monotonic() - start:.1f} s"
-    except MalformedReplyError:
-        detail = f"reachable (empty 1-token reply) in {time.monotonic() - start:.1f} s"
-    except LLMError as exc:
-        return [*checks, Check("reachability", False, str(exc), "check --base-url, the server and the key")]
+        if not ping:
+            return [*checks, Check("reachability", True,
+                                   "not checked (ask for a ping to make a 1-token call)",
+                                   optional=True)]
+        request = Request("doctor", 0, "", (Message.user("Reply with: ok"),),
+                          Settings(max_tokens=1))
+        start = time.monotonic()
+        try:
+            provider.complete(request)
+            detail = f"answered a 1-token call in {time.monotonic() - start:.1f} s"
+        except MalformedReplyError:
+            detail = f"reachable (empty 1-token reply) in {time.monotonic() - start:.1f} s"
+        except LLMError as exc:
+            return [*checks, Check("reachability", False, str(exc),
+                                   "check --base-url, the server and the key")]
+        return [*checks, Check("reachability", True, detail)]
     finally:
         provider.close()
-    return [*checks, Check("reachability", True, detail)]

@@ -122,6 +122,12 @@ class GeminiProvider(Provider):
             client = genai.Client(api_key=key, http_options=options)
         self._client = client
 
+    def close(self) -> None:
+        """Close the SDK client's connection pool (clients without ``close`` are left alone)."""
+        close = getattr(self._client, "close", None)
+        if callable(close):
+            close()
+
     def _attempt(self, request: Request) -> tuple[str, Usage]:
         try:
             resp = self._client.models.generate_content(

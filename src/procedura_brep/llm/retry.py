@@ -18,6 +18,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal, TypeVar
 
+from .base import CONNECT_TIMEOUT_S
 from .errors import LLMError, MalformedReplyError, ProviderError, ProviderTimeoutError
 
 __all__ = ["FailureKind", "RetryPolicy", "Retryable", "call_with_retries", "parse_retry_after"]
@@ -69,7 +70,7 @@ class RetryPolicy:
     base_delay_s: float = 0.5
     max_delay_s: float = 20.0
     max_retry_after_s: float = 120.0
-    connect_timeout_s: float = 4.0
+    connect_timeout_s: float = CONNECT_TIMEOUT_S
     unreachable_deadline_s: float = 14.0
 
 

@@ -1,7 +1,9 @@
 """Map exceptions of the official SDKs to retry classes without importing the SDKs.
 
 SDK exception hierarchies change between versions, so classification goes by status code and
-class names (``...Timeout...``, ``...Connection...``) rather than by ``isinstance``.
+class names (``...Timeout...``, ``...Connection...``) rather than by ``isinstance``. Exceptions
+that come from neither an SDK, its HTTP stack nor the OS (a ``TypeError`` in our own code, say)
+are bugs: they are raised again unchanged, never dressed up as a provider failure.
 """
 
 from __future__ import annotations
@@ -11,7 +13,19 @@ from typing import Any
 from .errors import ProviderError
 from .retry import Retryable, parse_retry_after
 
-__all__ = ["classify_sdk_error"]
+__all__ = ["SDK_MODULES", "classify_sdk_error", "from_sdk"]
+
+#: Top-level packages whose exceptions are provider/transport failures.
+SDK_MODULES = frozenset({"anthropic", "google", "openai", "httpx", "httpcore", "h11", "h2",
+                         "requests", "urllib3", "aiohttp", "websockets"})
+
+
+def from_sdk(exc: BaseException) -> bool:
+    """Whether ``exc`` comes from an SDK or its HTTP stack (:data:`SDK_MODULES`) or the OS
+    (``OSError``: refused connections, socket timeouts), as opposed to a bug in our code."""
+    if isinstance(exc, OSError):
+        return True
+    return any(c.__module__.split(".")[0] in SDK_MODULES for c in type(exc).__mro__)
 
 
 def _status(exc: BaseException) -> int | None:
@@ -47,7 +61,13 @@ def classify_sdk_error(exc: BaseException, *, endpoint: str) -> Retryable | Prov
     Returns:
         ``Retryable`` for timeouts, refused connections, 429 and 5xx; otherwise a
         ``ProviderError`` to raise at once.
+
+    Raises:
+        BaseException: ``exc`` itself, unchanged, when it does not come from an SDK
+            (:func:`from_sdk`): our own bugs must surface as themselves.
     """
+    if not from_sdk(exc):
+        raise exc
     names = _names(exc)
     detail = str(exc).splitlines()[0][:200] if str(exc) else type(exc).__name__
     status = _status(exc)

@@ -13,6 +13,7 @@ A failed check saves up to 8 frames of its phase under ``renders/sim/``.
 from __future__ import annotations
 
 import logging
+import shutil
 import tempfile
 import time
 from collections.abc import Callable, Iterable
@@ -32,26 +33,36 @@ from .report import BatteryReport, CheckResult
 log = logging.getLogger(__name__)
 
 ALL_CHECKS: tuple[str, ...] = ("B0", "B1", "B2", "B3", "B4", "B5", "B6", "B7")
+#: Prefix of the temporary bundle directory used when no ``out_dir`` is given (removed after).
+TEMP_PREFIX = "procedura-battery-"
 
 
 def _load(source: CompiledModel | str | Path, out_dir: Path | None
           ) -> tuple[CompiledModel, Path, bool]:
+    """``(model, bundle root, whether the root is a temp dir this call created)``."""
+    from ..pipeline import program_name  # lazily: pipeline sits above sim
     if isinstance(source, CompiledModel):
         from ..export.bundle import write_bundle
-        root = out_dir or Path(tempfile.mkdtemp(prefix="procedura-battery-"))
-        write_bundle(source, root, formats=("urdf", "usd", "mjcf"))
-        return source, root, True
+        temp = out_dir is None
+        root = out_dir or Path(tempfile.mkdtemp(prefix=TEMP_PREFIX))
+        try:
+            write_bundle(source, root, formats=("urdf", "usd", "mjcf"))
+        except BaseException:
+            if temp:
+                shutil.rmtree(root, ignore_errors=True)
+            raise
+        return source, root, temp
     path = Path(source)
     if path.is_file():  # a program file: compile, export next to out_dir
         from ..program import compile_source
-        model = compile_source(path.read_text(), name=path.parent.name if path.name == "program.py" else path.stem)
+        model = compile_source(path.read_text(), name=program_name(path))
         return _load(model, out_dir)
     program = path / "program.py"
     if not program.exists():
         raise FileNotFoundError(f"{path} has no program.py; pass a bundle directory written by "
                                 f"`procedura-brep build` or a program file")
     from ..program import compile_source
-    model = compile_source(program.read_text(), name=path.name)
+    model = compile_source(program.read_text(), name=program_name(program))
     if not (path / "model.xml").exists():
         from ..export.bundle import write_bundle
         write_bundle(model, path, formats=("urdf", "usd", "mjcf"))
@@ -152,18 +163,32 @@ def run_battery(source: CompiledModel | str | Path, *, out_dir: str | Path | Non
 
     Args:
         source: a CompiledModel, a bundle directory with ``program.py``, or a program file.
-        out_dir: where a CompiledModel's bundle and failure frames go (default: a temp dir,
-            or the bundle directory itself).
+        out_dir: where a CompiledModel's bundle and failure frames go (default: the bundle
+            directory itself; for a CompiledModel or program file, a temporary directory that is
+            removed afterwards, so no frames are saved: the report's notes say so).
         checks: the ids to run (default all).
         frames: save up to 8 frames of a failing phase.
     """
+    wanted = tuple(c for c in ALL_CHECKS if checks is None or c in set(checks))
+    model, root, temp = _load(source, Path(out_dir) if out_dir else None)
+    try:
+        return _run(model, root, wanted, frames and not temp, temp)
+    finally:
+        if temp:
+            shutil.rmtree(root, ignore_errors=True)
+
+
+def _run(model: CompiledModel, root: Path, wanted: tuple[str, ...], frames: bool,
+         temp: bool) -> BatteryReport:
+    """The checks of :func:`run_battery` over the bundle at ``root``."""
     import mujoco
     from ..export.mjcf import build_mjcf, wheel_joints
-    wanted = tuple(c for c in ALL_CHECKS if checks is None or c in set(checks))
-    model, root, _ = _load(source, Path(out_dir) if out_dir else None)
     art = articulate(model)
     masses = link_masses(model, art)
     report = BatteryReport([])
+    if temp:
+        report.notes.append("no out_dir: the bundle went to a temporary directory (removed), "
+                            "so no failure frames were saved; pass out_dir to keep them")
     m_file = mujoco.MjModel.from_xml_path(str(root / "model.xml"))
 
     def run(cid: str, fn: Callable[[], CheckResult | tuple[CheckResult, list]], mj=None) -> None:

@@ -56,6 +56,15 @@ def _free_dof(m) -> int | None:
     return None
 
 
+def _free_qpos(m) -> int | None:
+    """qpos address of the free joint (its position is qpos[adr:adr + 3]), or None."""
+    import mujoco
+    for i in range(m.njnt):
+        if m.jnt_type[i] == mujoco.mjtJoint.mjJNT_FREE:
+            return int(m.jnt_qposadr[i])
+    return None
+
+
 def check_b1(m, art: Articulation) -> tuple[CheckResult, list[np.ndarray]]:
     """B1: hold every servo at the compiled pose for :data:`SETTLE_S`; nothing keeps moving."""
     import mujoco
@@ -169,9 +178,9 @@ def check_b4(m, art: Articulation, wheels: list[str], floor_z: float
                 touching.add(m.body(int(m.geom_bodyid[g])).name)
     jid, aid = _ids(m, art)
     off = [w for w in wheels if not any(lk in touching for lk in art.subtree(art.joint(w).child))]
-    free = _free_dof(m)
+    free = _free_qpos(m)
     a0 = art.joint(wheels[0]).axis
-    start = d.qpos[:3].copy() if free is not None else np.zeros(3)
+    start = d.qpos[free:free + 3].copy() if free is not None else np.zeros(3)
     traj = []
     radius = np.mean([max(art.joint(w).anchor_m[2] - floor_z, 1e-3) for w in wheels])
     v = min(min(art.joint(w).velocity for w in wheels), 2 * math.pi)
@@ -181,7 +190,8 @@ def check_b4(m, art: Articulation, wheels: list[str], floor_z: float
         mujoco.mj_step(m, d)
         if k % 100 == 0:
             traj.append(d.qpos.copy())
-    moved = float(np.linalg.norm((d.qpos[:3] - start)[:2])) if free is not None else 0.0
+    moved = (float(np.linalg.norm((d.qpos[free:free + 3] - start)[:2])) if free is not None
+             else 0.0)
     ideal = v * radius * DRIVE_S
     ratio = moved / ideal if ideal > 0 else 0.0
     problems = []

@@ -7,7 +7,6 @@ notes it; a check never fails because frames could not be rendered.
 from __future__ import annotations
 
 import logging
-import os
 from pathlib import Path
 
 import numpy as np
@@ -25,27 +24,25 @@ def render_frames(model, qpos_list: list[np.ndarray], out_dir: Path, stem: str) 
     ``out_dir`` (empty if rendering is unavailable)."""
     if not qpos_list:
         return []
-    os.environ.setdefault("MUJOCO_GL", "egl")
     try:
         import mujoco
         from PIL import Image
         idx = np.unique(np.linspace(0, len(qpos_list) - 1, min(MAX_FRAMES, len(qpos_list))).astype(int))
         data = mujoco.MjData(model)
-        renderer = mujoco.Renderer(model, HEIGHT, WIDTH)
         opt = mujoco.MjvOption()
         cam = mujoco.MjvCamera()
         mujoco.mjv_defaultFreeCamera(model, cam)
         sub = out_dir / "renders" / "sim"
         sub.mkdir(parents=True, exist_ok=True)
         paths = []
-        for k, i in enumerate(idx):
-            data.qpos[:] = qpos_list[int(i)]
-            mujoco.mj_forward(model, data)
-            renderer.update_scene(data, camera=cam, scene_option=opt)
-            path = sub / f"{stem}_{k}.png"
-            Image.fromarray(renderer.render()).save(path)
-            paths.append(str(path.relative_to(out_dir)))
-        renderer.close()
+        with mujoco.Renderer(model, HEIGHT, WIDTH) as renderer:  # GL context freed on errors
+            for k, i in enumerate(idx):
+                data.qpos[:] = qpos_list[int(i)]
+                mujoco.mj_forward(model, data)
+                renderer.update_scene(data, camera=cam, scene_option=opt)
+                path = sub / f"{stem}_{k}.png"
+                Image.fromarray(renderer.render()).save(path)
+                paths.append(str(path.relative_to(out_dir)))
         return paths
     except Exception as exc:  # no GL context, no display: frames are optional
         log.warning("could not render frames for %s: %s", stem, exc)

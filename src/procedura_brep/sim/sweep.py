@@ -51,6 +51,9 @@ MAX_SAMPLES = 37
 SPHERE_DIRECTIONS = 8
 #: Spherical joints: tilts as fractions of the cone half-angle.
 SPHERE_FRACTIONS = (0.5, 1.0)
+#: A reached joint value (MuJoCo) is sampled too when it overshoots the commanded range by more
+#: than this (rad or m): below it, it is the range end itself.
+OVERSHOOT_EPS = 1e-6
 
 
 @dataclass
@@ -111,7 +114,7 @@ def samples(joint: Joint, extra: tuple[float, ...] = ()) -> list[Sample]:
         n = PRISMATIC_STEPS + 1
     values = np.linspace(lo, hi, max(2, min(MAX_SAMPLES, n))).tolist()
     # reached values (MuJoCo) only count where they overshoot the commanded range
-    values = sorted(values + [q for q in extra if q < lo - 1e-6 or q > hi + 1e-6])
+    values = sorted(values + [q for q in extra if q < lo - OVERSHOOT_EPS or q > hi + OVERSHOOT_EPS])
     for q in values:
         if joint.type == "revolute":
             label, d = f"{math.degrees(q):.4g} deg", delta("revolute", math.degrees(q))
