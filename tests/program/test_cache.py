@@ -75,3 +75,13 @@ def test_module_constants_and_helpers_are_in_the_key(tmp_path):
         assert hi_a[0] - lo_a[0] > hi_b[0] - lo_b[0] + 40
     finally:
         w.close()
+
+
+def test_docstring_edit_keeps_the_cache(tmp_path):
+    w = Worker(cache_dir=tmp_path / "cache")
+    try:
+        w.compile(LAMP)
+        m = w.compile(LAMP.replace('"""Desk lamp', '"""A desk lamp', 1))
+        assert rebuilt(m) == set()
+    finally:
+        w.close()

@@ -80,13 +80,28 @@ def _walk(code: types.CodeType, glb: dict[str, Any], params: dict[str, Any], sou
             out.append(f"value {n}={glb[n]!r}")  # a module-level constant outside the params
 
 
+def _docstring_lines(source: str) -> set[int]:
+    """1-based lines of the module docstring (it cannot change any geometry)."""
+    import ast
+    try:
+        body = ast.parse(source).body
+    except SyntaxError:
+        return set()
+    if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) \
+            and isinstance(body[0].value.value, str):
+        return set(range(body[0].lineno, (body[0].end_lineno or body[0].lineno) + 1))
+    return set()
+
+
 def part_keys(source: str, sections: Sections, reg: Registry, params: dict[str, Any],
               mates: list[dict[str, Any]], glb: dict[str, Any]) -> dict[str, str]:
     """The cache key of every declared part (see the module docstring)."""
     lines = source.splitlines()
     # Anything else a part may read (program classes, objects built at module level) is covered
     # conservatively: the module's text outside the params, parts, frames and assembly sections.
-    context = "\n".join(lines[:sections.starts["params"] - 1]
+    header = lines[:sections.starts["params"] - 1]
+    doc = _docstring_lines(source)
+    context = "\n".join([ln for i, ln in enumerate(header, 1) if i not in doc]
                         + lines[sections.starts["helpers"]:sections.starts["parts"] - 1])
     keys: dict[str, str] = {}
     for name, decl in reg.parts.items():
