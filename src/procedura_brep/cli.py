@@ -30,6 +30,11 @@ class StepSchema(str, Enum):
     AP242 = "AP242"
 
 
+FormatsOption = Annotated[Optional[str], typer.Option(
+    help="Comma list of step,obj,glb,usd,urdf,mjcf (default: all).")]
+StepSchemaOption = Annotated[StepSchema, typer.Option("--step-schema", help="STEP application protocol.")]
+
+
 def _err(msg: str) -> None:
     typer.echo(f"error: {msg}", err=True)
 
@@ -79,15 +84,13 @@ def _read(program: Path) -> str:
 
 
 def _formats(text: str | None) -> tuple[str, ...]:
+    """``--formats`` -> validated format names (None: all), as a usage error when unknown."""
     from .errors import EditError
-    from .pipeline import ALL_FORMATS
-    if text is None:
-        return ALL_FORMATS
-    fmts = tuple(f.strip().lower() for f in text.split(",") if f.strip())
-    bad = [f for f in fmts if f not in ALL_FORMATS]
-    if bad:
-        raise EditError(f"unknown format(s) {', '.join(bad)}; choose from {','.join(ALL_FORMATS)}")
-    return fmts
+    from .export.bundle import parse_formats
+    try:
+        return parse_formats(text)
+    except ValueError as exc:
+        raise EditError(str(exc)) from None
 
 
 def _do_build(program: Path, out: Path, formats: tuple[str, ...], source: str | None = None,
@@ -112,13 +115,11 @@ def _do_build(program: Path, out: Path, formats: tuple[str, ...], source: str | 
 def build(
     program: Annotated[Path, typer.Argument(help="The program file (a .py in the program format).")],
     out: Annotated[Path, typer.Option("-o", "--out", help="The run directory to write.")],
-    formats: Annotated[Optional[str], typer.Option(help="Comma list of step,obj,glb,usd,urdf,mjcf "
-                                                        "(default: all).")] = None,
+    formats: FormatsOption = None,
     no_gates: Annotated[bool, typer.Option("--no-gates", help="Skip the verification gates.")] = False,
     simulate: Annotated[bool, typer.Option("--simulate", help="Also run the MuJoCo battery and "
                                                               "record it in report.json.")] = False,
-    step_schema: Annotated[StepSchema, typer.Option("--step-schema", help="STEP application "
-                                                                          "protocol.")] = StepSchema.AP214,
+    step_schema: StepSchemaOption = StepSchema.AP214,
 ) -> None:
     """Compile PROGRAM in the sandbox, place its parts and write the run directory."""
     source = _read(program)
@@ -131,10 +132,8 @@ def build(
 def export(
     program: Annotated[Path, typer.Argument(help="The program to export.")],
     out: Annotated[Path, typer.Option("-o", "--out", help="Directory for the exports.")],
-    formats: Annotated[Optional[str], typer.Option(help="Comma list of step,obj,glb,usd,urdf,mjcf "
-                                                        "(default: all).")] = None,
-    step_schema: Annotated[StepSchema, typer.Option("--step-schema", help="STEP application "
-                                                                          "protocol.")] = StepSchema.AP214,
+    formats: FormatsOption = None,
+    step_schema: StepSchemaOption = StepSchema.AP214,
 ) -> None:
     """Write the export bundle of PROGRAM (no gates, no report)."""
     from .export.bundle import write_bundle
@@ -217,7 +216,8 @@ def edit(
     reported and not written (unless --force).
     """
     from .pipeline import build as run_build
-    from .pipeline import compile_file, program_name, write_atomic
+    from .paths import program_name, write_atomic
+    from .pipeline import compile_file
     from .program.edit import parse_assignment, set_params
     source = _read(program)
     values = dict(parse_assignment(s) for s in set_)
@@ -243,11 +243,12 @@ def edit(
     raise typer.Exit(EXIT_FAIL if problem else EXIT_OK)
 
 
-def _compile(program: Path):
+def _compile(program: Path, source: str | None = None):
     """Compile PROGRAM in the sandbox; a program that fails is a usage error (exit 2)."""
     from .errors import CompileError
-    from .pipeline import compile_file, program_name
-    model = compile_file(_read(program), program_name(program))
+    from .paths import program_name
+    from .pipeline import compile_file
+    model = compile_file(_read(program) if source is None else source, program_name(program))
     if not model.ok:
         errs = [f for f in model.findings if f.severity == "error"]
         raise CompileError(f"{program} does not compile: {errs[0].message}"
@@ -268,8 +269,9 @@ def check(
     import json
 
     from .gates import check_model
-    model = _compile(program)
-    report = check_model(model, _read(program))
+    source = _read(program)
+    model = _compile(program, source)
+    report = check_model(model, source)
     data = report.as_dict()
     if json_:
         typer.echo(json.dumps(data, indent=2))

@@ -9,11 +9,7 @@ from __future__ import annotations
 
 import json
 import logging
-import os
-import re
-import tempfile
 import time
-import unicodedata
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -21,40 +17,10 @@ from typing import Any
 import numpy as np
 
 from .errors import CompileError, ProceduraError
+from .paths import program_name, write_atomic
 from .program.model import CompiledModel, Finding
 
 log = logging.getLogger(__name__)
-ALL_FORMATS = ("step", "obj", "glb", "usd", "urdf", "mjcf")
-
-
-def program_name(path: Path) -> str:
-    """A stable identifier ``[a-z_][a-z0-9_]*`` (valid in USD paths, MJCF and URDF): the folder of
-    ``program.py`` files, else the file stem; ``model_`` is prefixed when it would start with a
-    digit, and ``model`` stands in for an empty name."""
-    stem = path.parent.name if path.name == "program.py" and path.parent.name else path.stem
-    text = unicodedata.normalize("NFKD", stem).encode("ascii", "ignore").decode("ascii").lower()
-    text = re.sub(r"[^a-z0-9_]+", "_", text).strip("_")
-    if not text:
-        return "model"
-    return f"model_{text}" if text[0].isdigit() else text
-
-
-def write_atomic(path: Path, data: bytes | str) -> None:
-    """Write ``data`` to ``path`` through a temp file in the same folder and a rename."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    raw = data.encode("utf-8") if isinstance(data, str) else data
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    umask = os.umask(0)
-    os.umask(umask)
-    try:
-        os.fchmod(fd, 0o666 & ~umask)
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(raw)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def dump_json(obj: Any) -> str:
@@ -157,7 +123,7 @@ def _warm_exports() -> None:
         pass
 
 
-def build(program: Path, out_dir: Path, *, formats: tuple[str, ...] | None = ALL_FORMATS,
+def build(program: Path, out_dir: Path, *, formats: tuple[str, ...] | None = None,
           name: str | None = None, gates: bool = True, source: str | None = None,
           simulate: bool = False, step_schema: str = "AP214") -> BuildResult:
     """Compile ``program`` and write the run directory ``out_dir``.
@@ -165,7 +131,7 @@ def build(program: Path, out_dir: Path, *, formats: tuple[str, ...] | None = ALL
     Args:
         program: path of the program file.
         out_dir: the run directory (created).
-        formats: exports to write; ``step`` is always written.
+        formats: exports to write (None: all); ``step`` is always written.
         name: the model name (default from the path).
         gates: run the verification gates and record them in the report.
         source: the program text (default: read ``program``).
@@ -193,9 +159,9 @@ def build(program: Path, out_dir: Path, *, formats: tuple[str, ...] | None = ALL
     if not model.ok:
         _write_report(result, timings, t0)
         return result
-    fmts = tuple(dict.fromkeys(("step", *(formats or ()))))
+    from .export.bundle import parse_formats, write_bundle
+    fmts = tuple(dict.fromkeys(("step", *parse_formats(formats))))
     t = time.perf_counter()
-    from .export.bundle import write_bundle
     bundle_t: dict[str, float] = {}
     written = write_bundle(model, out_dir, formats=fmts, timings=bundle_t,
                            step_schema=step_schema)  # type: ignore[arg-type]

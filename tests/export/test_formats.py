@@ -194,7 +194,7 @@ def test_glb_is_metres_y_up(lamp, bundle):
                                             ("---/program.py", "model")])
 def test_program_name_is_an_identifier(path, name):
     import re
-    from procedura_brep.pipeline import program_name
+    from procedura_brep.paths import program_name
     got = program_name(Path(path))
     assert got == name and re.fullmatch(r"[a-z_][a-z0-9_]*", got)
 

@@ -18,7 +18,8 @@ from typing import Any
 from ..llm import (BudgetExceeded, Client, Image, Ledger, LLMError, Message, Request, Settings,
                    Transcript, build_client, preflight)
 from ..llm.errors import MalformedReplyError
-from ..pipeline import BuildResult, build, dump_json, write_atomic
+from ..paths import write_atomic
+from ..pipeline import BuildResult, build, dump_json
 from ..program.model import Finding
 from .prompts import system_prompt, template
 

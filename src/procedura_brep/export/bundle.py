@@ -18,20 +18,13 @@ from pathlib import Path
 from typing import Literal
 
 from ..articulation import articulate, link_masses
+from ..paths import write_atomic
 from ..program.model import CompiledModel
 
 log = logging.getLogger(__name__)
 
 #: Every format name ``--formats`` accepts, in writing order.
 FORMATS: tuple[str, ...] = ("step", "obj", "glb", "usd", "urdf", "mjcf")
-
-
-def _write(path: Path, data: bytes) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_bytes(data)
-    os.replace(tmp, path)
-    return path
 
 
 def parse_formats(text: str | Iterable[str] | None) -> tuple[str, ...]:
@@ -101,6 +94,6 @@ def write_bundle(model: CompiledModel, out_dir: str | os.PathLike[str], *,
     """
     root = Path(out_dir)
     files = bundle_bytes(model, formats=formats, timings=timings, step_schema=step_schema)
-    written = {rel: _write(root / rel, data) for rel, data in files.items()}
+    written = {rel: write_atomic(root / rel, data) for rel, data in files.items()}
     log.info("wrote %d files to %s", len(written), root)
     return written

@@ -16,7 +16,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 import types
 from functools import lru_cache
 from pathlib import Path
@@ -24,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from ..paths import write_atomic
 from .registry import Registry
 from .sections import Sections
 
@@ -141,13 +141,8 @@ def store(cache_dir: str | os.PathLike[str], key: str, data: bytes) -> None:
     folder.mkdir(parents=True, exist_ok=True)
     folder.chmod(0o755)
     target = folder / f"{key}.brep"
-    if target.exists():
-        return
-    fd, tmp = tempfile.mkstemp(dir=folder, suffix=".tmp")
-    os.fchmod(fd, 0o644)  # readable by the unprivileged sandbox child
-    with os.fdopen(fd, "wb") as fh:
-        fh.write(data)
-    os.replace(tmp, target)
+    if not target.exists():
+        write_atomic(target, data, mode=0o644)  # readable by the unprivileged sandbox child
 
 
 def store_model(cache_dir: str | os.PathLike[str], model: Any) -> int:

@@ -28,6 +28,7 @@ from . import contact
 from .dynamics import check_b1, check_b4, check_b7, sweep_joint
 from .fidelity import check_b0, check_b5, check_b6
 from .frames import render_frames
+from ..paths import program_name
 from .report import BatteryReport, CheckResult
 
 log = logging.getLogger(__name__)
@@ -40,7 +41,6 @@ TEMP_PREFIX = "procedura-battery-"
 def _load(source: CompiledModel | str | Path, out_dir: Path | None
           ) -> tuple[CompiledModel, Path, bool]:
     """``(model, bundle root, whether the root is a temp dir this call created)``."""
-    from ..pipeline import program_name  # lazily: pipeline sits above sim
     if isinstance(source, CompiledModel):
         from ..export.bundle import write_bundle
         temp = out_dir is None
