@@ -2,6 +2,12 @@
 
 from __future__ import annotations
 
+import importlib.util
+import tomllib
+from pathlib import Path
+
+import pytest
+
 from procedura_brep.llm import Check, ScriptedProvider, Transcript, check_provider
 
 
@@ -17,9 +23,10 @@ def test_unknown_and_missing_model():
 
 
 def test_missing_key_and_network_off(monkeypatch):
+    """Key and endpoint checks do not depend on whether the (optional) anthropic SDK is here."""
     monkeypatch.delenv("ANTHROPIC_API_KEY", raising=False)
     checks = by_name(check_provider("anthropic:claude-sonnet-4-5"))
-    assert checks["SDK"].ok
+    assert checks["SDK"].ok == (importlib.util.find_spec("anthropic") is not None)
     assert not checks["API key"].ok and checks["API key"].fix == "export ANTHROPIC_API_KEY=..."
     assert not checks["endpoint"].ok and "PROCEDURA_BREP_NO_NETWORK" in checks["endpoint"].fix
     assert "MISSING  API key" in checks["API key"].line()
@@ -48,3 +55,26 @@ def test_replay_tape_loads(tmp_path):
     checks = by_name(check_provider(f"replay:{path}"))
     assert checks["tape"].ok and "1 recorded call" in checks["tape"].detail
     assert not by_name(check_provider(f"replay:{tmp_path / 'none.jsonl'}"))["tape"].ok
+
+
+@pytest.mark.parametrize("prefix,module,extra", [("anthropic", "anthropic", "anthropic"),
+                                                 ("gemini", "google", "gemini")])
+def test_absent_optional_sdk_says_which_extra(monkeypatch, prefix, module, extra):
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name.split(".")[0] == module else _find(name, *a))
+    sdk = by_name(check_provider(f"{prefix}:m"))["SDK"]
+    assert not sdk.ok and sdk.fix == f"pip install 'procedura-brep[{extra}]'"
+
+
+_find = importlib.util.find_spec
+
+
+def test_openai_sdk_is_a_core_dependency():
+    """`pip install -e .` alone must be enough for --model openai:... (Ollama, vLLM, ...)."""
+    meta = tomllib.loads((Path(__file__).parents[2] / "pyproject.toml").read_text())["project"]
+    core = [d.split(">")[0].split("=")[0].strip() for d in meta["dependencies"]]
+    assert "openai" in core
+    extras = meta["optional-dependencies"]
+    assert not any(d.startswith("anthropic") or d.startswith("google-genai") for d in meta["dependencies"])
+    assert "anthropic" in " ".join(extras["anthropic"]) and "google-genai" in " ".join(extras["gemini"])
+    assert importlib.util.find_spec("openai") is not None

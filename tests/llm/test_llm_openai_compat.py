@@ -192,10 +192,10 @@ def test_missing_sdk_is_one_line_config_error(monkeypatch, fake_server):
     monkeypatch.setitem(sys.modules, "openai", None)  # makes `import openai` raise ImportError
     with pytest.raises(ConfigError) as info:
         get_provider("openai:m", base_url=fake_server.url)
-    assert str(info.value) == "openai: the openai SDK is not installed; pip install 'procedura-brep[openai]'"
     assert str(info.value) == MISSING_SDK_MESSAGE
+    assert "is not installed" in MISSING_SDK_MESSAGE and "pip install openai" in MISSING_SDK_MESSAGE
     sdk = {c.name: c for c in check_provider("openai:m", fake_server.url)}["SDK"]
-    assert not sdk.ok and sdk.fix == "pip install 'procedura-brep[openai]'"
+    assert not sdk.ok and sdk.fix.startswith("pip install openai")
 
 
 def test_sdk_is_not_imported_at_package_import():

@@ -21,10 +21,12 @@ from .transcript import read_tape
 
 __all__ = ["Check", "check_provider"]
 
+# provider prefix -> (SDK module, how to install it). openai is a core dependency (the client of
+# every OpenAI-compatible server); anthropic and gemini are extras.
 _SDK = {
-    "openai": ("openai", "openai"),
-    "anthropic": ("anthropic", "anthropic"),
-    "gemini": ("google.genai", "gemini"),
+    "openai": ("openai", "pip install openai (a core dependency: reinstall procedura-brep)"),
+    "anthropic": ("anthropic", "pip install 'procedura-brep[anthropic]'"),
+    "gemini": ("google.genai", "pip install 'procedura-brep[gemini]'"),
 }
 
 
@@ -109,12 +111,12 @@ def check_provider(
         return [Check("model", False, str(exc), f"use one of {', '.join(known_prefixes())}")]
     checks = [Check("model", True, model)]
     if prefix in _SDK:
-        module, extra = _SDK[prefix]
+        module, fix = _SDK[prefix]
         if importlib.util.find_spec(module.split(".")[0]) is None or (
             "." in module and importlib.util.find_spec(module) is None
         ):
             checks.append(Check("SDK", False, f"{module} is not installed",
-                                f"pip install 'procedura-brep[{extra}]'"))
+                                fix))
         else:
             checks.append(Check("SDK", True, f"{module} installed"))
     checks += [_key_check(prefix, base_url), _endpoint_check(prefix, name, base_url)]

@@ -1,6 +1,6 @@
 """``openai:`` — OpenAI and any OpenAI-compatible server, through the official ``openai`` SDK.
 
-The SDK is an optional extra (``pip install 'procedura-brep[openai]'``) imported only when a
+The SDK is a core dependency (the client for OpenAI and every compatible server), imported only when a
 provider is built, never at package import. Ollama, vLLM, llama.cpp server, LM Studio,
 OpenRouter and Gemini's compatible endpoint are a base URL away. The SDK's own retries are off
 (``max_retries=0``): retries are ours (see :mod:`.retry`) so behaviour is bounded and testable,
@@ -29,7 +29,8 @@ log = logging.getLogger(__name__)
 #: Hosts that want ``max_completion_tokens`` instead of ``max_tokens`` (quirks are data).
 MAX_COMPLETION_TOKENS_HOSTS = frozenset({"api.openai.com"})
 #: The one-line error when ``openai:`` is used without the SDK installed.
-MISSING_SDK_MESSAGE = "openai: the openai SDK is not installed; pip install 'procedura-brep[openai]'"
+MISSING_SDK_MESSAGE = ("openai: the openai SDK is not installed; pip install openai "
+                       "(a core dependency: reinstall procedura-brep)")
 #: Sent as the key to servers that need none (local servers); the SDK insists on some key.
 NO_KEY_PLACEHOLDER = "sk-no-key-required"
 
