@@ -1,0 +1,463 @@
+"""The program splice: add one part, written as a five-block reply, to a compiling program.
+
+The staged agent asks the model for one part per call. Its reply carries five blocks::
+
+    ## params      new `name = value  # unit` lines (params it shares with the program may repeat)
+    ## helpers     helper functions it needs (an identical copy of an existing helper is dropped)
+    ## body        exactly one `@part(...)` function
+    ## frames      the `frames("<part>", ...)` calls of this part
+    ## mates       the `mate("<part>.<frame>", ...)` calls joining it to earlier parts
+
+:func:`parse_reply` reads them tolerantly (code fences or not, stray prose around them, headings
+or ``# === name ===`` markers, any case). :func:`splice` then inserts each block at its section
+of the program, in plan order, and returns the new source with the helper renames it made and a
+map from program lines back to reply lines (so a compile finding points into the reply).
+
+Line numbers follow Python's own (``\\n``; a ``\\r\\n`` reply is normalised first).
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+from dataclasses import dataclass, field
+
+from ..errors import ProgramFormatError
+from .sections import SECTION_NAMES, marker, parse_sections
+
+BLOCKS: tuple[str, ...] = ("params", "helpers", "body", "frames", "mates")
+_ALIASES = {"param": "params", "parameters": "params", "helper": "helpers", "part": "body",
+            "parts": "body", "frame": "frames", "mate": "mates", "assembly": "mates"}
+_SECTION_OF = {"params": "params", "helpers": "helpers", "body": "parts", "frames": "frames",
+               "mates": "assembly"}
+# A block heading: "## params", "**Params:**", "PARAMS:", "# === params ===", "params block".
+_HEAD_RE = re.compile(
+    r"^\s*(?:#{1,6}\s*|\*\*|#\s*===\s*)?(?:block\s*\d*\s*[:.-]?\s*)?"
+    r"(params?|parameters|helpers?|body|parts?|frames?|mates?|assembly)"
+    r"(?:\s+block)?\s*(?:===)?\s*:?\s*(?:\*\*)?\s*:?\s*$", re.I)
+_FENCE_RE = re.compile(r"^\s*(```|~~~)")
+_EMPTY_RE = re.compile(r"^\s*(#\s*)?\(?(none|nothing|empty|n/?a|-)\)?\.?\s*$", re.I)
+
+
+class SpliceError(ProgramFormatError):
+    """A part reply cannot be spliced: a missing block, a clash, a malformed statement."""
+
+    def __init__(self, message: str, *, block: str | None = None, line: int | None = None) -> None:
+        self.block = block
+        where = f"{block} block" + (f" line {line}" if line is not None else "") if block else None
+        super().__init__(f"{where}: {message}" if where else message)
+
+
+@dataclass(frozen=True)
+class PartReply:
+    """The five blocks of one part reply, each as plain Python text (possibly empty)."""
+
+    params: str
+    helpers: str
+    body: str
+    frames: str
+    mates: str
+
+    def block(self, name: str) -> str:
+        return getattr(self, name)
+
+
+@dataclass
+class SpliceResult:
+    """The new program and how the reply landed in it.
+
+    Attributes:
+        source: the new program text.
+        part: the name of the part that was added.
+        renames: helper renames, old name -> new name (a colliding helper of different code).
+        dropped_params: params the reply repeated with the program's value (not added again).
+        dropped_helpers: helpers identical to the program's (not added again).
+        line_map: new-program line -> (block, line in that block) for every inserted line.
+    """
+
+    source: str
+    part: str
+    renames: dict[str, str] = field(default_factory=dict)
+    dropped_params: list[str] = field(default_factory=list)
+    dropped_helpers: list[str] = field(default_factory=list)
+    line_map: dict[int, tuple[str, int]] = field(default_factory=dict)
+
+    def reply_line(self, program_line: int) -> tuple[str, int] | None:
+        """Where a program line came from in the reply (None: it was already in the program)."""
+        return self.line_map.get(program_line)
+
+
+def empty_program(description: str = "procedura-brep program.") -> str:
+    """A program with a docstring, the API import and five empty sections."""
+    doc = description.replace('"""', "'''").strip() or "procedura-brep program."
+    body = "\n\n".join(marker(n) for n in SECTION_NAMES)
+    return f'"""{doc}"""\nfrom procedura_brep.program import *\n\n{body}\n'
+
+
+def parse_reply(text: str) -> PartReply:
+    """Split a model's part reply into its five blocks.
+
+    Accepts markdown headings or ``# === name ===`` markers, with or without code fences, in one
+    fence or one fence per block, with prose between blocks (prose outside fences is dropped
+    when the reply uses fences). ``none`` or an empty block means the block is empty.
+
+    Raises:
+        SpliceError: a block is missing or given twice (naming it).
+    """
+    lines = text.replace("\r\n", "\n").replace("\r", "\n").split("\n")
+    fenced = any(_FENCE_RE.match(t) for t in lines)
+    found: dict[str, list[str]] = {}
+    current: str | None = None
+    inside = False
+    for raw in lines:
+        if _FENCE_RE.match(raw):
+            inside = not inside
+            continue
+        head = _HEAD_RE.match(raw)
+        if head and (inside or not raw.lstrip().startswith("#") or "===" in raw or raw.lstrip()[:2] == "##"
+                     or not fenced):
+            name = head.group(1).lower()
+            name = _ALIASES.get(name, name)
+            if name in found:
+                raise SpliceError(f"the {name} block appears twice", block=name)
+            found[name] = []
+            current = name
+            continue
+        if current is None or (fenced and not inside):
+            continue
+        found[current].append(raw)
+    missing = [b for b in BLOCKS if b not in found]
+    if missing:
+        raise SpliceError(f"missing block(s) {', '.join(missing)}; a part reply has five blocks: "
+                          f"{', '.join(BLOCKS)} (write 'none' for an empty one)")
+    blocks = {}
+    for name in BLOCKS:
+        body = [t for t in found[name]]
+        while body and not body[-1].strip():
+            body.pop()
+        while body and not body[0].strip():
+            body.pop(0)
+        if len(body) == 1 and _EMPTY_RE.match(body[0]):
+            body = []
+        blocks[name] = _trim_prose("\n".join(body)) if not fenced else "\n".join(body)
+    return PartReply(**blocks)
+
+
+def _parses(text: str) -> bool:
+    try:
+        ast.parse(text)
+    except SyntaxError:
+        return False
+    return True
+
+
+def _trim_prose(text: str) -> str:
+    """Without fences, prose may precede or follow the code: drop paragraphs at either end that
+    read as sentences (no ``=``, ``(``, indentation or ``:`` line ends, and not Python). Code with
+    a real syntax error is kept, so the error reaches the model instead of a silently lost line."""
+    paras = re.split(r"\n\s*\n", text)
+
+    def prose(p: str) -> bool:
+        rows = p.split("\n")
+        return (not _parses(p) and bool(re.match(r"[A-Za-z]", rows[0])) and "=" not in p
+                and "(" not in p and not any(r[:1].isspace() or r.rstrip().endswith(":") for r in rows))
+
+    while paras and prose(paras[0]):
+        paras.pop(0)
+    while paras and prose(paras[-1]):
+        paras.pop()
+    return "\n\n".join(paras)
+
+
+def _parse_block(name: str, text: str) -> ast.Module:
+    try:
+        return ast.parse(text)
+    except SyntaxError as exc:
+        raise SpliceError(f"syntax error: {exc.msg}", block=name, line=exc.lineno) from None
+
+
+def _norm(node: ast.AST) -> str:
+    return ast.dump(node, annotate_fields=False, include_attributes=False)
+
+
+def _string_arg(call: ast.AST) -> str | None:
+    if (isinstance(call, ast.Expr) and isinstance(call.value, ast.Call) and call.value.args
+            and isinstance(call.value.args[0], ast.Constant) and isinstance(call.value.args[0].value, str)):
+        return call.value.args[0].value
+    return None
+
+
+def _call_name(stmt: ast.AST) -> str | None:
+    if isinstance(stmt, ast.Expr) and isinstance(stmt.value, ast.Call) and isinstance(stmt.value.func, ast.Name):
+        return stmt.value.func.id
+    return None
+
+
+def _owner(section: str, stmt: ast.stmt) -> str | None:
+    """The part a top-level statement of a section belongs to."""
+    if section == "parts":
+        return stmt.name if isinstance(stmt, ast.FunctionDef) else None
+    first = _string_arg(stmt)
+    if first is None:
+        return None
+    return first.split(".")[0] if section == "assembly" else first
+
+
+def _is_part_def(stmt: ast.stmt) -> bool:
+    return isinstance(stmt, ast.FunctionDef) and any(
+        (isinstance(d, ast.Call) and isinstance(d.func, ast.Name) and d.func.id == "part")
+        or (isinstance(d, ast.Name) and d.id == "part") for d in stmt.decorator_list)
+
+
+@dataclass
+class _Program:
+    """The program's sections, top-level statements and names, parsed once."""
+
+    lines: list[str]
+    tree: ast.Module
+    starts: dict[str, int]
+    params: dict[str, ast.Assign]
+    helpers: dict[str, ast.stmt]
+    parts: list[str]
+
+    @classmethod
+    def read(cls, source: str) -> _Program:
+        sec = parse_sections(source)
+        tree = ast.parse(source)
+        params: dict[str, ast.Assign] = {}
+        helpers: dict[str, ast.stmt] = {}
+        parts: list[str] = []
+        for stmt in tree.body:
+            where = sec.section_of(stmt.lineno)
+            if where == "params" and isinstance(stmt, ast.Assign):
+                params[stmt.targets[0].id] = stmt  # type: ignore[union-attr]
+            elif where == "helpers" and isinstance(stmt, (ast.FunctionDef, ast.Assign)):
+                names = [stmt.name] if isinstance(stmt, ast.FunctionDef) else [
+                    t.id for t in stmt.targets if isinstance(t, ast.Name)]
+                for n in names:
+                    helpers[n] = stmt
+            elif where == "parts" and _is_part_def(stmt):
+                parts.append(stmt.name)  # type: ignore[attr-defined]
+        return cls(source.split("\n"), tree, dict(sec.starts), params, helpers, parts)
+
+    def section_end(self, section: str) -> int:
+        """The last 1-based line of a section's body (the line before the next marker)."""
+        i = SECTION_NAMES.index(section)
+        if i + 1 < len(SECTION_NAMES):
+            return self.starts[SECTION_NAMES[i + 1]] - 1
+        return len(self.lines)
+
+    def statements(self, section: str) -> list[ast.stmt]:
+        lo, hi = self.starts[section], self.section_end(section)
+        return [s for s in self.tree.body if lo < s.lineno <= hi]
+
+    def insertion_line(self, section: str, before: set[str]) -> int:
+        """The line after which a new part's statements go in ``section``: after the last
+        statement owned by a part in ``before`` (the parts that precede it in plan order), or at
+        the section's end when ``before`` is every part."""
+        stmts = self.statements(section)
+        owned = [s for s in stmts if _owner(section, s) in before]
+        if set(self.parts) <= before or not stmts:
+            last = self.section_end(section)
+            while last > self.starts[section] and not self.lines[last - 1].strip():
+                last -= 1
+            return last
+        if owned:
+            return max(s.end_lineno or s.lineno for s in owned)
+        return self.starts[section]
+
+
+def _rename_in(text: str, tree: ast.Module, renames: dict[str, str]) -> str:
+    """Rename the helper names in ``renames`` wherever ``text`` defines or loads them."""
+    if not renames:
+        return text
+    spots: list[tuple[int, int, int, str]] = []  # (line, col, length, new)
+    lines = text.split("\n")
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Name) and node.id in renames:
+            spots.append((node.lineno, node.col_offset, len(node.id), renames[node.id]))
+        elif isinstance(node, ast.FunctionDef) and node.name in renames:
+            line = lines[node.lineno - 1]
+            col = re.search(rf"\bdef\s+({re.escape(node.name)})\b", line)
+            if col:
+                spots.append((node.lineno, col.start(1), len(node.name), renames[node.name]))
+    for lineno, col, length, new in sorted(spots, reverse=True):
+        s = lines[lineno - 1]
+        lines[lineno - 1] = s[:col] + new + s[col + length:]
+    return "\n".join(lines)
+
+
+def _free_name(name: str, taken: set[str]) -> str:
+    k = 2
+    while f"{name}_{k}" in taken:
+        k += 1
+    return f"{name}_{k}"
+
+
+def splice(program: str, reply: PartReply | str, *, after: str | None = None) -> SpliceResult:
+    """Insert one part reply into ``program``.
+
+    Args:
+        program: the current program (it must parse; it need not have any part yet).
+        reply: the five blocks, or the raw reply text (parsed with :func:`parse_reply`).
+        after: the part that precedes the new one in plan order (default: the last part), so a
+            part added by a re-plan lands at its place in every section.
+
+    Returns:
+        The new source, the part's name, helper renames, dropped duplicates and the line map.
+
+    Raises:
+        SpliceError: a missing or malformed block, a param clash (both values named), a body
+            that is not exactly one ``@part`` function, a part that already exists, frames or
+            mates of another part, or an ``after`` that is not a part.
+    """
+    blocks = parse_reply(reply) if isinstance(reply, str) else reply
+    prog = _Program.read(program.replace("\r\n", "\n"))
+    trees = {b: _parse_block(b, blocks.block(b)) for b in BLOCKS}
+
+    body = trees["body"].body
+    defs = [s for s in body if isinstance(s, ast.FunctionDef)]
+    if len(body) != 1 or len(defs) != 1 or not _is_part_def(defs[0]):
+        raise SpliceError("must hold exactly one function decorated with @part(...), and nothing else",
+                          block="body")
+    name = defs[0].name
+    if name in prog.parts:
+        raise SpliceError(f"part {name!r} is already in the program", block="body", line=defs[0].lineno)
+    if after is not None and after not in prog.parts:
+        raise SpliceError(f"cannot insert after {after!r}: not a part; parts: {', '.join(prog.parts) or 'none'}")
+    before = set(prog.parts if after is None else prog.parts[:prog.parts.index(after) + 1])
+
+    # params: new ones appended, repeats with the same expression dropped, clashes refused.
+    keep_params: list[ast.stmt] = []
+    dropped_params: list[str] = []
+    for stmt in trees["params"].body:
+        if not (isinstance(stmt, ast.Assign) and len(stmt.targets) == 1
+                and isinstance(stmt.targets[0], ast.Name)):
+            raise SpliceError("holds only `name = value  # unit` lines", block="params", line=stmt.lineno)
+        pname = stmt.targets[0].id
+        if pname in prog.params:
+            old = prog.params[pname]
+            if _norm(old.value) != _norm(stmt.value):
+                raise SpliceError(
+                    f"param {pname} = {ast.unparse(stmt.value)} clashes with the program's "
+                    f"{pname} = {ast.unparse(old.value)} (line {old.lineno}); reuse it or pick a new name",
+                    block="params", line=stmt.lineno)
+            dropped_params.append(pname)
+            continue
+        if pname in prog.helpers or pname in prog.parts:
+            raise SpliceError(f"param {pname} has the name of an existing helper or part",
+                              block="params", line=stmt.lineno)
+        keep_params.append(stmt)
+
+    # helpers: identical copies dropped, same name with other code renamed in the new blocks.
+    taken = set(prog.params) | set(prog.helpers) | set(prog.parts) | {name}
+    renames: dict[str, str] = {}
+    keep_helpers: list[ast.stmt] = []
+    dropped_helpers: list[str] = []
+    new_names: set[str] = set()
+    for stmt in trees["helpers"].body:
+        if isinstance(stmt, ast.FunctionDef):
+            hname = stmt.name
+        elif isinstance(stmt, ast.Assign) and all(isinstance(t, ast.Name) for t in stmt.targets):
+            hname = stmt.targets[0].id  # type: ignore[attr-defined]
+        else:
+            raise SpliceError("holds only function definitions and simple constants",
+                              block="helpers", line=stmt.lineno)
+        if hname in new_names:
+            raise SpliceError(f"helper {hname} is defined twice", block="helpers", line=stmt.lineno)
+        new_names.add(hname)
+        if hname in prog.helpers and _norm(prog.helpers[hname]) == _norm(stmt):
+            dropped_helpers.append(hname)
+            continue
+        if hname in taken:
+            renames[hname] = _free_name(hname, taken | new_names)
+            taken.add(renames[hname])
+        keep_helpers.append(stmt)
+
+    for section, block in (("frames", "frames"), ("assembly", "mates")):
+        for stmt in trees[block].body:
+            if _call_name(stmt) != ("frames" if block == "frames" else "mate"):
+                raise SpliceError(f"holds only {'frames' if block == 'frames' else 'mate'}(...) calls",
+                                  block=block, line=stmt.lineno)
+            owner = _owner(section, stmt)
+            if owner != name:
+                raise SpliceError(f"{'frames' if block == 'frames' else 'mates'} of {owner!r} do not belong "
+                                  f"to part {name!r}", block=block, line=stmt.lineno)
+    if not trees["frames"].body:
+        raise SpliceError(f"part {name!r} publishes no frames: add frames({name!r}, ...)", block="frames")
+
+    texts: dict[str, list[tuple[str, int]]] = {}  # block -> [(line text, line in block)]
+    for b in BLOCKS:
+        src = blocks.block(b)
+        keep = {"params": keep_params, "helpers": keep_helpers}.get(b)
+        text = _rename_in(src, trees[b], renames)
+        rows = text.split("\n") if text else []
+        if keep is None:
+            texts[b] = [(t, i) for i, t in enumerate(rows, start=1)]
+            continue
+        chosen: list[tuple[str, int]] = []
+        for stmt in keep:
+            first = min([stmt.lineno] + [d.lineno for d in getattr(stmt, "decorator_list", [])])
+            chosen += [(rows[i - 1], i) for i in range(first, (stmt.end_lineno or stmt.lineno) + 1)]
+            if b == "helpers":
+                chosen += [("", 0), ("", 0)]
+        texts[b] = chosen
+    body_first = min([defs[0].lineno] + [d.lineno for d in defs[0].decorator_list])
+    texts["body"] = [(t, i) for t, i in texts["body"] if i >= body_first]
+
+    # Insert from the bottom of the file up, so earlier insertion lines stay valid.
+    inserts: list[tuple[int, str, list[tuple[str, int]]]] = []
+    for b in BLOCKS:
+        rows = texts[b]
+        if not rows:
+            continue
+        section = _SECTION_OF[b]
+        if b in ("params", "helpers"):
+            at = prog.insertion_line(section, set(prog.parts))  # shared: always at the end
+        else:
+            at = prog.insertion_line(section, before)
+        if b in ("helpers", "body"):  # functions: two blank lines before, one after
+            while rows and not rows[-1][0].strip():
+                rows = rows[:-1]
+            lead = [("", 0), ("", 0)] if at > prog.starts[section] else []
+            rows = [*lead, *rows, ("", 0)]
+        inserts.append((at, b, rows))
+    lines = list(prog.lines)
+    for at, b, rows in sorted(inserts, key=lambda x: x[0], reverse=True):
+        lines[at:at] = [t for t, _ in rows]
+    source = "\n".join(lines)
+    source = re.sub(r"\n{4,}", "\n\n\n", source)
+
+    try:
+        parse_sections(source)
+    except ProgramFormatError as exc:
+        raise SpliceError(f"the spliced program does not parse: {exc}") from None
+    return SpliceResult(source, name, renames, dropped_params, dropped_helpers,
+                        _line_map(source, texts))
+
+
+def _line_map(source: str, texts: dict[str, list[tuple[str, int]]]) -> dict[int, tuple[str, int]]:
+    """Find each inserted block's lines in the new source, in order, section by section."""
+    sec = parse_sections(source)
+    lines = source.split("\n")
+    out: dict[int, tuple[str, int]] = {}
+    for b in BLOCKS:
+        rows = [(t, i) for t, i in texts[b] if i and t.strip()]
+        if not rows:
+            continue
+        first, last = sec.span(_SECTION_OF[b])
+        # the block's rows appear as one contiguous run (blank lines aside) inside its section
+        for start in range(first, last + 1):
+            k, ln = 0, start
+            hits: dict[int, tuple[str, int]] = {}
+            while k < len(rows) and ln <= last:
+                if lines[ln - 1] == rows[k][0]:
+                    hits[ln] = (b, rows[k][1])
+                    k += 1
+                elif lines[ln - 1].strip():
+                    break
+                ln += 1
+            if k == len(rows):
+                out.update(hits)
+                break
+    return out
