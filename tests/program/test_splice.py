@@ -9,7 +9,7 @@ import pytest
 
 from procedura_brep import kernel
 from procedura_brep.program.sections import parse_sections
-from procedura_brep.program.splice import SpliceError, empty_program, parse_reply, splice
+from procedura_brep.program.splice import SpliceError, empty_program, parse_reply, replace_part, splice
 
 from .splice_helpers import part_replies
 
@@ -175,3 +175,26 @@ def test_code_with_a_syntax_error_is_not_trimmed_away_as_prose():
     one = splice(empty_program(), BASE)
     with pytest.raises(SpliceError, match="mates block line 1: syntax error"):
         splice(one.source, bad)
+
+
+def test_replace_part_keeps_its_place_and_the_other_parts_bytes():
+    two = splice(splice(empty_program(), BASE).source, POST).source
+    cap = POST.replace("post", "cap")
+    three = splice(two, cap).source
+    new_post = POST.replace("Cylinder(10, post_h", "Cylinder(12, post_h").replace("post_h = 80.0", "post_h = 90.0")
+    with pytest.raises(SpliceError, match="post_h = 90.0 clashes"):
+        replace_part(three, new_post)
+    out = replace_part(three, POST.replace("Cylinder(10, post_h", "Cylinder(12, post_h"))
+    names = [n.name for n in ast.parse(out.source).body if isinstance(n, ast.FunctionDef)
+             and any(isinstance(d, ast.Call) for d in n.decorator_list)]
+    assert names == ["base", "post", "cap"]
+    assert "Cylinder(12, post_h" in out.source and "Cylinder(10, post_h" not in out.source.split("def cap")[0]
+    assert out.source.count('frames("post"') == 1 and out.source.count('mate("post.foot"') == 1
+    for part in ("base", "cap"):  # other parts' text is unchanged
+        seg = lambda src: src.split(f"def {part}():")[1].split("\n\n")[0]  # noqa: E731
+        assert seg(out.source) == seg(three)
+    root = replace_part(three, BASE.replace("Box(120", "Box(130"))
+    assert root.source.index("def base()") < root.source.index("def post()")
+    assert root.source.index('frames("base"') < root.source.index('frames("post"')
+    with pytest.raises(SpliceError, match="cannot replace part 'lid'"):
+        replace_part(three, POST.replace("post", "lid"))

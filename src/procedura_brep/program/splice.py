@@ -294,7 +294,37 @@ def _free_name(name: str, taken: set[str]) -> str:
     return f"{name}_{k}"
 
 
-def splice(program: str, reply: PartReply | str, *, after: str | None = None) -> SpliceResult:
+def replace_part(program: str, reply: PartReply | str) -> SpliceResult:
+    """Replace an existing part with a new five-block reply for it, in the same place.
+
+    The part's function, its ``frames(...)`` and its own mates (those whose child it is) are
+    removed, then the reply is spliced back at the part's position in plan order. Mates of other
+    parts onto this one stay, so its frames must keep their names. New params are added; a
+    changed value of an existing param is a clash (``set_param`` changes a value).
+
+    Raises:
+        SpliceError: as :func:`splice`, or the reply's part is not in the program.
+    """
+    blocks = parse_reply(reply) if isinstance(reply, str) else reply
+    body = _parse_block("body", blocks.body).body
+    name = body[0].name if body and isinstance(body[0], ast.FunctionDef) else None
+    prog = _Program.read(program.replace("\r\n", "\n"))
+    if name not in prog.parts:
+        raise SpliceError(f"cannot replace part {name!r}: not in the program; parts: {', '.join(prog.parts)}",
+                          block="body")
+    drop: set[int] = set()
+    for section in ("parts", "frames", "assembly"):
+        for stmt in prog.statements(section):
+            if _owner(section, stmt) == name:
+                first = min([stmt.lineno] + [d.lineno for d in getattr(stmt, "decorator_list", [])])
+                drop.update(range(first, (stmt.end_lineno or stmt.lineno) + 1))
+    kept = "\n".join(t for i, t in enumerate(prog.lines, start=1) if i not in drop)
+    k = prog.parts.index(name)
+    return splice(kept, blocks, after=prog.parts[k - 1] if k else None, at_start=k == 0)
+
+
+def splice(program: str, reply: PartReply | str, *, after: str | None = None,
+           at_start: bool = False) -> SpliceResult:
     """Insert one part reply into ``program``.
 
     Args:
@@ -302,6 +332,7 @@ def splice(program: str, reply: PartReply | str, *, after: str | None = None) ->
         reply: the five blocks, or the raw reply text (parsed with :func:`parse_reply`).
         after: the part that precedes the new one in plan order (default: the last part), so a
             part added by a re-plan lands at its place in every section.
+        at_start: put the new part before every other part (it becomes the root).
 
     Returns:
         The new source, the part's name, helper renames, dropped duplicates and the line map.
@@ -325,7 +356,8 @@ def splice(program: str, reply: PartReply | str, *, after: str | None = None) ->
         raise SpliceError(f"part {name!r} is already in the program", block="body", line=defs[0].lineno)
     if after is not None and after not in prog.parts:
         raise SpliceError(f"cannot insert after {after!r}: not a part; parts: {', '.join(prog.parts) or 'none'}")
-    before = set(prog.parts if after is None else prog.parts[:prog.parts.index(after) + 1])
+    before = (set() if at_start else
+              set(prog.parts if after is None else prog.parts[:prog.parts.index(after) + 1]))
 
     # params: new ones appended, repeats with the same expression dropped, clashes refused.
     keep_params: list[ast.stmt] = []
