@@ -1,0 +1,103 @@
+"""The build call's context, laid out so consecutive calls share a long byte-identical prefix.
+
+Providers cache a prompt's prefix (OpenAI and Gemini automatically, Anthropic on request), so
+everything that stays the same from one part to the next comes first and only grows by
+appending:
+
+1. the system text (rules, the generated API reference, the reply format);
+2. the run's fixed context: the prompt, the reference image, the whole plan;
+3. the program so far as the log of committed parts, in commit order, each exactly as it was
+   spliced (after renames, without repeated params): a new commit only appends to it;
+4. last, what changes every call: this part's slice of the plan (its mates, the parts still to
+   come, its size and pose mandate) and the renders of the build so far.
+
+Retries of one part continue the same conversation (the reply and the measured findings are
+appended), so they share the whole earlier request too. :func:`prefix_ratio` measures it.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from ..llm import Image, Message, Request, Settings
+from .plan import Plan, PlannedPart
+
+
+@dataclass(frozen=True)
+class CommittedPart:
+    """One committed part as it went into the program (blocks after the splice)."""
+
+    name: str
+    text: str  # the part's params, helpers, body, frames and mates as spliced
+    warning: str = ""  # committed after its attempts ran out: what was still wrong
+
+
+def program_log(header: str, committed: Sequence[CommittedPart]) -> str:
+    """The program so far as an append-only log of committed parts."""
+    out = ["The program so far. The compiler assembles these blocks, in this order, into one "
+           "five-section program; everything shown compiles.", "```python", header.rstrip(), "```"]
+    for k, c in enumerate(committed, start=1):
+        out.append(f"### committed part {k}: {c.name}")
+        if c.warning:
+            out.append(f"(committed with a warning: {c.warning})")
+        out += ["```python", c.text.rstrip(), "```"]
+    return "\n".join(out)
+
+
+def part_slice(plan: Plan, part: PlannedPart) -> str:
+    """This part's mandate: its description, its mates, and the parts still to come."""
+    k = plan.index(part.name)
+    later = plan.parts[k + 1:]
+    rows = [f"Write part {k + 1} of {len(plan.parts)}: {part.name} (detail: {part.detail}).",
+            f"Mandate (size, aspect, pose against its neighbours): {part.description}"]
+    if part.mates:
+        rows.append("Its mates (declare each in the mates block; the nominal is a param name):")
+        rows += [f"- to {m.partner}: {m.type}, nominal {m.nominal}" for m in part.mates]
+    else:
+        rows.append("It is the root: it mates to nothing; publish the frames later parts need.")
+    kids = [p for p in later if part.name in p.partners]
+    if kids:
+        rows.append("Later parts that mate to it (publish frames for them): " +
+                    ", ".join(f"{p.name} ({next(m.type for m in p.mates if m.partner == part.name)})" for p in kids))
+    if later:
+        rows.append("Still to come: " + ", ".join(p.name for p in later))
+    return "\n".join(rows)
+
+
+def build_request(*, step: int, system: str, prompt: str, plan: Plan, header: str,
+                  committed: Sequence[CommittedPart], part: PlannedPart, views: Sequence[Image] = (),
+                  reference: Image | None = None, history: Sequence[Message] = (),
+                  legend: str = "", settings: Settings | None = None) -> Request:
+    """The request for one build call (``history``: earlier attempts at this part)."""
+    fixed = (f"Object to build: {prompt}\n\nThe assembly plan (the parts in build order; "
+             f"each mates to earlier parts):\n```json\n{json.dumps(plan.as_dict(), indent=1)}\n```")
+    msgs = [Message.user(fixed, *([reference] if reference else [])),
+            Message.user(program_log(header, committed))]
+    tail = part_slice(plan, part)
+    if views:
+        tail += ("\n\nRenders of the build so far, one colour per part" +
+                 (f" ({legend})" if legend else "") + ".")
+    msgs.append(Message.user(tail, *views))
+    return Request("build", step, system, (*msgs, *history), settings or Settings(max_tokens=8000))
+
+
+def serialise(request: Request) -> str:
+    """The request as the text a provider sees, images by content hash (for prefix checks)."""
+    parts = [request.system]
+    for m in request.messages:
+        parts.append(f"\n<{m.role}>\n{m.text}")
+        parts += [f"<image {img.sha256}>" for img in m.images]
+    return "".join(parts)
+
+
+def prefix_ratio(previous: Request, current: Request) -> float:
+    """The byte-identical prefix of two requests as a fraction of the current one's length."""
+    a, b = serialise(previous), serialise(current)
+    n = 0
+    for x, y in zip(a, b):
+        if x != y:
+            break
+        n += 1
+    return n / max(len(b), 1)
