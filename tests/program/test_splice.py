@@ -181,8 +181,8 @@ def test_replace_part_keeps_its_place_and_the_other_parts_bytes():
     two = splice(splice(empty_program(), BASE).source, POST).source
     cap = POST.replace("post", "cap")
     three = splice(two, cap).source
-    new_post = POST.replace("Cylinder(10, post_h", "Cylinder(12, post_h").replace("post_h = 80.0", "post_h = 90.0")
-    with pytest.raises(SpliceError, match="post_h = 90.0 clashes"):
+    new_post = POST.replace("Cylinder(10, post_h", "Cylinder(12, post_h").replace("spigot_d = 12.0", "spigot_d = 13.0")
+    with pytest.raises(SpliceError, match="spigot_d = 13.0 clashes"):  # the cap's mate reads it too
         replace_part(three, new_post)
     out = replace_part(three, POST.replace("Cylinder(10, post_h", "Cylinder(12, post_h"))
     names = [n.name for n in ast.parse(out.source).body if isinstance(n, ast.FunctionDef)
@@ -198,3 +198,14 @@ def test_replace_part_keeps_its_place_and_the_other_parts_bytes():
     assert root.source.index('frames("base"') < root.source.index('frames("post"')
     with pytest.raises(SpliceError, match="cannot replace part 'lid'"):
         replace_part(three, POST.replace("post", "lid"))
+
+
+def test_replace_part_may_change_a_param_only_it_reads():
+    two = splice(splice(empty_program(), BASE).source, POST).source
+    out = replace_part(two, POST.replace("post_h = 80.0", "post_h = 95.0"))
+    assert out.changed_params == ["post_h"] and "post_h = 95.0  # mm, post height" in out.source
+    assert out.source.count("post_h =") == 1
+    # the post's own mate is the only reader of spigot_d: the compiler re-cuts the base's socket
+    assert replace_part(two, POST.replace("spigot_d = 12.0", "spigot_d = 14.0")).changed_params == ["spigot_d"]
+    with pytest.raises(SpliceError, match="base_t = 10.0 clashes"):  # the base reads it
+        replace_part(two, POST.replace("### Params\n", "### Params\nbase_t = 10.0  # mm\n"))

@@ -84,6 +84,17 @@ class ReplayProvider(Provider):
             log.debug("%s (playing the recorded reply anyway)", msg)
         return Reply(entry.text, entry.usage, 0.0, self.name)
 
+    def skip_before(self, step: int) -> int:
+        """Drop the recorded calls of steps before ``step`` (a resumed run played them already).
+
+        Returns:
+            How many recorded calls were dropped.
+        """
+        dropped = 0
+        for key in [k for k in self._queues if k[1] < step]:
+            dropped += len(self._queues.pop(key))
+        return dropped
+
     def unconsumed(self) -> list[str]:
         """Labels ``role#step (line N)`` of recorded calls not played yet, in file order."""
         left = sorted((e for q in self._queues.values() for e in q), key=lambda e: e.line)

@@ -73,6 +73,8 @@ class SpliceResult:
         dropped_params: params the reply repeated with the program's value (not added again).
         dropped_helpers: helpers identical to the program's (not added again).
         line_map: new-program line -> (block, line in that block) for every inserted line.
+        inserted: block -> the text that went into the program (renamed, without repeats).
+        changed_params: params whose value a replaced part changed in place.
     """
 
     source: str
@@ -81,6 +83,13 @@ class SpliceResult:
     dropped_params: list[str] = field(default_factory=list)
     dropped_helpers: list[str] = field(default_factory=list)
     line_map: dict[int, tuple[str, int]] = field(default_factory=dict)
+    inserted: dict[str, str] = field(default_factory=dict)
+    changed_params: list[str] = field(default_factory=list)
+
+    def as_reply(self) -> str:
+        """The inserted blocks as a five-block reply (how the part now reads in the program)."""
+        return "\n".join(f"## {b}\n```python\n{self.inserted.get(b, '').strip() or '# none'}\n```"
+                         for b in BLOCKS)
 
     def reply_line(self, program_line: int) -> tuple[str, int] | None:
         """Where a program line came from in the reply (None: it was already in the program)."""
@@ -299,8 +308,9 @@ def replace_part(program: str, reply: PartReply | str) -> SpliceResult:
 
     The part's function, its ``frames(...)`` and its own mates (those whose child it is) are
     removed, then the reply is spliced back at the part's position in plan order. Mates of other
-    parts onto this one stay, so its frames must keep their names. New params are added; a
-    changed value of an existing param is a clash (``set_param`` changes a value).
+    parts onto this one stay, so its frames must keep their names. New params are added; the
+    reply may change the value of a param that nothing else reads (its line is rewritten in
+    place); a changed value of a param other parts read is a clash (``set_param`` changes it).
 
     Raises:
         SpliceError: as :func:`splice`, or the reply's part is not in the program.
@@ -319,12 +329,23 @@ def replace_part(program: str, reply: PartReply | str) -> SpliceResult:
                 first = min([stmt.lineno] + [d.lineno for d in getattr(stmt, "decorator_list", [])])
                 drop.update(range(first, (stmt.end_lineno or stmt.lineno) + 1))
     kept = "\n".join(t for i, t in enumerate(prog.lines, start=1) if i not in drop)
+    # what the rest of the program reads: names anywhere outside the param lines, the params'
+    # own expressions, and the nominals (strings) of the other mates
+    param_lines = {a.lineno for a in prog.params.values()}
+    read: set[str] = set()
+    for stmt in ast.parse(kept).body:
+        if stmt.lineno in param_lines:
+            read |= {n.id for n in ast.walk(stmt.value) if isinstance(n, ast.Name)}  # type: ignore[attr-defined]
+            continue
+        read |= {n.id for n in ast.walk(stmt) if isinstance(n, ast.Name)}
+        read |= {n.value for n in ast.walk(stmt) if isinstance(n, ast.Constant) and isinstance(n.value, str)}
     k = prog.parts.index(name)
-    return splice(kept, blocks, after=prog.parts[k - 1] if k else None, at_start=k == 0)
+    return splice(kept, blocks, after=prog.parts[k - 1] if k else None, at_start=k == 0,
+                  may_change=frozenset(set(prog.params) - read))
 
 
 def splice(program: str, reply: PartReply | str, *, after: str | None = None,
-           at_start: bool = False) -> SpliceResult:
+           at_start: bool = False, may_change: frozenset[str] = frozenset()) -> SpliceResult:
     """Insert one part reply into ``program``.
 
     Args:
@@ -333,6 +354,7 @@ def splice(program: str, reply: PartReply | str, *, after: str | None = None,
         after: the part that precedes the new one in plan order (default: the last part), so a
             part added by a re-plan lands at its place in every section.
         at_start: put the new part before every other part (it becomes the root).
+        may_change: params whose value the reply may change in place (no other part reads them).
 
     Returns:
         The new source, the part's name, helper renames, dropped duplicates and the line map.
@@ -362,6 +384,8 @@ def splice(program: str, reply: PartReply | str, *, after: str | None = None,
     # params: new ones appended, repeats with the same expression dropped, clashes refused.
     keep_params: list[ast.stmt] = []
     dropped_params: list[str] = []
+    changed_params: list[str] = []
+    updates: dict[int, str] = {}  # program line -> new param line
     for stmt in trees["params"].body:
         if not (isinstance(stmt, ast.Assign) and len(stmt.targets) == 1
                 and isinstance(stmt.targets[0], ast.Name)):
@@ -369,6 +393,10 @@ def splice(program: str, reply: PartReply | str, *, after: str | None = None,
         pname = stmt.targets[0].id
         if pname in prog.params:
             old = prog.params[pname]
+            if _norm(old.value) != _norm(stmt.value) and pname in may_change:
+                updates[old.lineno] = blocks.params.split("\n")[stmt.lineno - 1]
+                changed_params.append(pname)
+                continue
             if _norm(old.value) != _norm(stmt.value):
                 raise SpliceError(
                     f"param {pname} = {ast.unparse(stmt.value)} clashes with the program's "
@@ -455,6 +483,8 @@ def splice(program: str, reply: PartReply | str, *, after: str | None = None,
             rows = [*lead, *rows, ("", 0)]
         inserts.append((at, b, rows))
     lines = list(prog.lines)
+    for lineno, text in updates.items():
+        lines[lineno - 1] = text
     for at, b, rows in sorted(inserts, key=lambda x: x[0], reverse=True):
         lines[at:at] = [t for t, _ in rows]
     source = "\n".join(lines)
@@ -464,8 +494,9 @@ def splice(program: str, reply: PartReply | str, *, after: str | None = None,
         parse_sections(source)
     except ProgramFormatError as exc:
         raise SpliceError(f"the spliced program does not parse: {exc}") from None
+    inserted = {b: "\n".join(t for t, _ in texts[b]).strip("\n") for b in BLOCKS}
     return SpliceResult(source, name, renames, dropped_params, dropped_helpers,
-                        _line_map(source, texts))
+                        _line_map(source, texts), inserted, changed_params)
 
 
 def _line_map(source: str, texts: dict[str, list[tuple[str, int]]]) -> dict[int, tuple[str, int]]:

@@ -1,0 +1,581 @@
+"""The staged agent (DESIGN.md section 5, the paper's section 3): plan, one-direction review,
+mate-driven build one part per call, decoupled-critic refine, then the final build.
+
+One frozen model answers every call through a :class:`~procedura_brep.llm.Client`; each call has
+a ``role`` (``plan``, ``review``, ``build``, ``critic``, ``fixer``) and a run-wide ``step``
+number, so a transcript replays call for call. Everything between the calls is deterministic
+(:class:`~procedura_brep.agent.tools.Tools`).
+
+The run directory is written after every commit (:mod:`.rundir`): a killed run resumes from
+``state.json`` without losing or redoing a committed part, and the last committed program is
+always there. The ablation switches are the paper's Table 3 rows: ``plan=False`` builds without
+an assembly plan (the model names each next part itself), ``feedback=False`` sends no renders
+to the build calls, ``refine=False`` ships the draft; ``review=False`` skips the review.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..errors import ProceduraError
+from ..llm import Client, Image, Message, Request, Settings
+from ..llm.errors import BudgetExceeded
+from ..paths import write_atomic
+from ..program.model import CompiledModel, Finding
+from ..program.splice import SpliceError, empty_program, parse_reply, replace_part, splice
+from .actions import ActionError, CompileOutcome, EditRefused, RefineSession, Step, parse_action
+from .context import CommittedPart, build_request
+from .critic import Critique, CritiqueError, parse_critique
+from .plan import Plan, PlanError, PlannedPart, parse_plan
+from .prompts import reference, template
+from .review import enforce_review
+from .rundir import RunDir, RunState
+from .tools import PartVerdict, Tools
+
+log = logging.getLogger(__name__)
+Progress = Callable[[str, str], None]
+DONE_WORD = "DONE"
+
+
+class StagedError(ProceduraError):
+    """A stage could not go on (no usable plan, no part at all): the run ends with this reason."""
+
+
+@dataclass(frozen=True)
+class StagedOptions:
+    """Switches and budgets of a staged run (the ablation rows are plan/review/feedback/refine)."""
+
+    plan: bool = True
+    review: bool = True
+    feedback: bool = True
+    refine: bool = True
+    attempts: int = 3
+    plan_attempts: int = 3
+    max_edits: int = 6
+    max_actions: int = 40
+    max_parts: int = 60
+    views: tuple[str, ...] | None = None  # build views (None: the 12 defaults)
+    simulate: bool = True
+
+
+@dataclass
+class StagedResult:
+    """How a staged run ended."""
+
+    status: str
+    out_dir: Path
+    state: RunState
+    build: Any = None
+    refine: dict[str, Any] = field(default_factory=dict)
+    message: str = ""
+
+
+def _mate_table() -> str:
+    from ..mates import TYPES
+    return "\n".join(f"- {t.name} ({t.kind}, {t.dof.count} DOF): {t.doc}" for t in TYPES.values())
+
+
+def _findings_text(findings: list[Finding], limit: int = 12) -> str:
+    rows = [f"- {f.message}" + (f" (line {f.line})" if f.line else "") for f in findings[:limit]]
+    if len(findings) > limit:
+        rows.append(f"- ... and {len(findings) - limit} more")
+    return "\n".join(rows) or "- (no details)"
+
+
+class StagedRun:
+    """One staged generation; :meth:`run` drives it to the end."""
+
+    def __init__(self, prompt: str, out_dir: Path, *, client: Client, options: StagedOptions = StagedOptions(),
+                 image: bytes | None = None, tools: Tools | None = None, progress: Progress | None = None,
+                 state: RunState | None = None) -> None:
+        self.client = client
+        self.options = options
+        self.tools = tools or Tools()
+        self.progress = progress or (lambda stage, text: log.info("%s: %s", stage, text))
+        self.dir = RunDir(out_dir)
+        self.out_dir = out_dir
+        self.reference = Image(image, "reference") if image else None
+        self.state = state or RunState(prompt)
+        self.prompt = self.state.prompt
+        self.name = "model"
+        self._model: CompiledModel | None = None
+        self.refine_report: dict[str, Any] = {}
+
+    # model calls -----------------------------------------------------------------------------
+
+    def _call(self, role: str, system: str, messages: list[Message], *, max_tokens: int = 8000) -> str:
+        step = self.state.step
+        reply = self.client.complete(Request(role, step, system, tuple(messages), Settings(max_tokens=max_tokens)))
+        self.state.step = step + 1
+        return reply.text
+
+    def _image_note(self) -> str:
+        return "The attached image is the reference: match it.\n\n" if self.reference else ""
+
+    def _refs(self) -> list[Image]:
+        return [self.reference] if self.reference else []
+
+    # stages ----------------------------------------------------------------------------------
+
+    def run(self) -> StagedResult:
+        """Run the remaining stages (all of them for a new run)."""
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        st = self.state
+        try:
+            if st.stage == "plan":
+                self._plan()
+            if st.stage == "review":
+                self._review()
+            if st.stage == "build":
+                self._build()
+            if st.stage == "refine":
+                self._refine()
+            if st.stage == "finish":
+                return self._finish("ok")
+        except BudgetExceeded as exc:
+            return self._finish("budget_exceeded", str(exc))
+        except StagedError as exc:
+            return self._finish("failed", str(exc))
+        return self._finish("ok")
+
+    def _advance(self, stage: str) -> None:
+        self.state.stage = stage  # type: ignore[assignment]
+        self.dir.save(self.state)
+
+    def _plan(self) -> None:
+        if not self.options.plan:
+            self.progress("plan", "skipped (--no-plan): the model names each next part")
+            self._advance("build")
+            return
+        system = template("plan_system").replace("{mates}", _mate_table())
+        msgs = [Message.user(template("plan_user").replace("{prompt}", self.prompt)
+                             .replace("{image_note}", self._image_note()), *self._refs())]
+        last = ""
+        for attempt in range(1, self.options.plan_attempts + 1):
+            text = self._call("plan", system, msgs)
+            try:
+                plan = parse_plan(text)
+            except PlanError as exc:
+                last = str(exc)
+                self.progress("plan", f"attempt {attempt}: {exc}")
+                msgs += [Message.assistant(text), Message.user(
+                    "The plan has problems; fix all of them and reply with the whole plan:\n"
+                    + "\n".join(f"- {p}" for p in exc.problems))]
+                continue
+            self.state.plan = plan.as_dict()
+            self.state.repairs += list(plan.notes)
+            self.progress("plan", f"{len(plan.parts)} parts: {', '.join(plan.names)}")
+            self._advance("review")
+            return
+        raise StagedError(f"no usable plan after {self.options.plan_attempts} attempts: {last}")
+
+    def _review(self) -> None:
+        plan = self.plan
+        if plan is None or not self.options.review:
+            self._advance("build")
+            return
+        system = template("review_system").replace("{mates}", _mate_table())
+        msgs = [Message.user(template("review_user").replace("{prompt}", self.prompt)
+                             .replace("{image_note}", self._image_note()).replace("{plan}", plan.to_json()),
+                             *self._refs())]
+        text = self._call("review", system, msgs)
+        try:
+            reviewed = parse_plan(text)
+        except PlanError as exc:
+            self.state.repairs.append(f"review reply unusable, plan kept as it was: {exc}")
+            self.progress("review", f"unusable reply, plan kept ({exc})")
+            self._advance("build")
+            return
+        merged, repairs = enforce_review(plan, reviewed)
+        repairs = [f"review: {n}" for n in reviewed.notes] + repairs
+        self.state.plan = merged.as_dict()
+        self.state.repairs += repairs
+        added = [n for n in merged.names if n not in plan.names]
+        self.progress("review", f"{len(merged.parts)} parts (+{len(added)}: {', '.join(added) or 'none'})"
+                      + (f"; {len(repairs)} repair(s)" if repairs else ""))
+        self._advance("build")
+
+    @property
+    def plan(self) -> Plan | None:
+        return parse_plan(self.state.plan) if self.state.plan else None
+
+    # build -----------------------------------------------------------------------------------
+
+    def _current_model(self) -> CompiledModel | None:
+        if self._model is None and self.state.source:
+            try:
+                self._model = self.tools.compile(self.state.source, self.name)
+            except ProceduraError:
+                self._model = None
+        return self._model
+
+    def _views(self) -> tuple[list[Image], str]:
+        model = self._current_model()
+        if not self.options.feedback or model is None or not model.parts:
+            return [], ""
+        views = list(self.options.views) if self.options.views else None
+        return self.tools.render(model, views)
+
+    def _build(self) -> None:
+        plan = self.plan
+        system = template("build_system").replace("{reference}", reference())
+        if plan is None:
+            return self._build_unplanned(system)
+        done = {c.name for c in self.state.committed} | {s["name"] for s in self.state.skipped}
+        for part in plan.parts:
+            if part.name in done:
+                continue
+            skipped = {s["name"] for s in self.state.skipped}
+            lost = [m.partner for m in part.mates if m.partner in skipped]
+            if lost and len(lost) == len(part.mates):
+                self._skip(part.name, f"its partner(s) {', '.join(lost)} were skipped")
+                continue
+            if lost:
+                part = PlannedPart(part.name, part.detail, part.description,
+                                   tuple(m for m in part.mates if m.partner not in skipped))
+            self._build_part(system, plan, part)
+        if not self.state.committed:
+            raise StagedError("no part could be built")
+        self._advance("refine")
+
+    def _skip(self, name: str, why: str) -> None:
+        self.state.skipped.append({"name": name, "reason": why})
+        self.progress("build", f"{name}: skipped ({why})")
+        self.dir.save(self.state)
+
+    def _build_part(self, system: str, plan: Plan, part: PlannedPart) -> None:
+        k = plan.index(part.name) + 1
+        views, legend = self._views()
+        history: list[Message] = []
+        candidate: tuple[Any, PartVerdict] | None = None
+        overhead = 0.0
+        header = empty_program(self.prompt)
+        for attempt in range(1, self.options.attempts + 1):
+            req = build_request(step=self.state.step, system=system, prompt=self.prompt, plan=plan,
+                                header=header, committed=self.state.committed, part=part, views=views,
+                                reference=self.reference, history=history, legend=legend)
+            reply = self.client.complete(req)
+            self.state.step += 1
+            t0 = time.perf_counter()
+            feedback, verdict, result = self._try_part(reply.text, part.name)
+            if verdict is not None and verdict.compiled:
+                if verdict.ok:
+                    overhead += time.perf_counter() - t0
+                    self._commit(result, verdict, overhead=overhead)
+                    self.progress("build", f"part {k}/{len(plan.parts)} {part.name}: committed "
+                                  f"(attempt {attempt})")
+                    return
+                candidate = (result, verdict)
+            overhead += time.perf_counter() - t0
+            self.progress("build", f"part {k}/{len(plan.parts)} {part.name}: attempt {attempt} failed: "
+                          f"{feedback.splitlines()[0] if feedback else ''}")
+            self.dir.attempt(self.state, part.name, attempt, feedback)
+            history += [Message.assistant(reply.text), Message.user(
+                f"Part {part.name} did not pass. Fix every problem and reply with all five blocks again:\n"
+                + feedback)]
+        if candidate is not None:
+            result, verdict = candidate
+            warning = "; ".join(f.message for f in verdict.errors[:3])
+            self._commit(result, verdict, overhead=overhead, warning=warning)
+            self.progress("build", f"part {k}/{len(plan.parts)} {part.name}: committed with a warning "
+                          f"after {self.options.attempts} attempts ({warning})")
+        else:
+            self._skip(part.name, f"it did not compile in {self.options.attempts} attempts")
+
+    def _try_part(self, text: str, name: str) -> tuple[str, PartVerdict | None, Any]:
+        """Parse, splice and gate one reply: (feedback, verdict or None, splice result)."""
+        try:
+            blocks = parse_reply(text)
+            result = splice(self.state.source or empty_program(self.prompt), blocks)
+        except SpliceError as exc:
+            return f"- {exc}", None, None
+        if result.part != name:
+            return (f"- the body defines part {result.part!r}; this call writes part {name!r}",
+                    None, None)
+        verdict = self.tools.gate_part(result.source, name, baseline=self.state.baseline, name=self.name)
+        if not verdict.compiled:
+            return _findings_text(verdict.errors), verdict, result
+        return (_findings_text(verdict.errors) if verdict.errors else ""), verdict, result
+
+    def _commit(self, result: Any, verdict: PartVerdict, *, overhead: float, warning: str = "") -> None:
+        st = self.state
+        st.source = result.source
+        st.committed.append(CommittedPart(result.part, result.as_reply(), warning))
+        st.baseline = max(st.baseline, verdict.n_vis) if warning else verdict.n_vis
+        st.per_part_s[result.part] = round(overhead, 4)
+        self._model = verdict.model
+        self.dir.commit(st, result.part)
+
+    def _build_unplanned(self, system: str) -> None:
+        """--no-plan: the model names and writes each next part until it answers DONE."""
+        while len(self.state.committed) + len(self.state.skipped) < self.options.max_parts:
+            names = [c.name for c in self.state.committed]
+            views, legend = self._views()
+            msgs = [Message.user(f"Object to build: {self.prompt}\n\nThere is no plan: choose the next "
+                                 f"part yourself, mated to parts already built, and write its five blocks; "
+                                 f"reply with the single word {DONE_WORD} when the object is complete."
+                                 f"\nParts so far: {', '.join(names) or 'none'}", *self._refs())]
+            if self.state.source:
+                msgs.append(Message.user(f"The program so far:\n```python\n{self.state.source}```", *views))
+            text = self._call("build", system, msgs)
+            if text.strip().upper().rstrip(".") == DONE_WORD:
+                break
+            feedback, verdict, result = self._try_part(text, _body_name(text) or "?")
+            if verdict is not None and verdict.compiled:
+                self._commit(result, verdict, overhead=0.0,
+                             warning="; ".join(f.message for f in verdict.errors[:3]))
+                self.progress("build", f"part {len(self.state.committed)} {result.part}: committed")
+            else:
+                self._skip(_body_name(text) or f"part_{len(names) + 1}", feedback.splitlines()[0] if feedback else "")
+        if not self.state.committed:
+            raise StagedError("no part could be built")
+        self._advance("refine")
+
+    # refine ----------------------------------------------------------------------------------
+
+    def _refine(self) -> None:
+        if not self.options.refine:
+            self._advance("finish")
+            return
+        from ..render.views import VIEWS
+        bench = _Bench(self)
+        session = RefineSession(bench, self.state.source, max_edits=self.options.max_edits,
+                                max_actions=self.options.max_actions)
+        system = (template("fixer_system").replace("{views}", ", ".join(VIEWS))
+                  .replace("{edits}", str(self.options.max_edits)))
+        model = self._current_model()
+        parts = ", ".join(p.name for p in model.parts) if model else ""
+        msgs: list[Message] = [Message.user(
+            f"Object: {self.prompt}\nParts: {parts}\n\nThe program:\n```python\n{self.state.source}```\n\n"
+            "Start by rendering views of the build.", *self._refs())]
+        while not session.done:
+            text = self._call("fixer", system, msgs, max_tokens=8000)
+            msgs.append(Message.assistant(text))
+            try:
+                action = parse_action(text, view_names=tuple(VIEWS))
+            except ActionError as exc:
+                session.steps.append(Step("invalid", False, str(exc)))
+                if len(session.steps) >= session.max_actions:
+                    session.end("steps")
+                msgs.append(Message.user(f"invalid action: {exc}"))
+                continue
+            step = session.run(action)
+            if step.ok and action.name in ("edit_part", "set_param"):
+                write_atomic(self.out_dir / "history" /
+                             f"{len(self.state.committed) + session.edits:03d}-refine-{action.name}.py",
+                             session.source)
+            images = bench.last_images if action.name == "render" and step.ok else []
+            msgs.append(Message.user(step.observation, *images))
+            self.progress("refine", f"{action.name}: {step.observation.splitlines()[0][:120]}")
+        if session.source != self.state.source:
+            self.state.source = session.source
+            self._model = None
+        self.refine_report = {
+            "verdict": session.verdict, "edits": session.edits, "actions": len(session.steps),
+            "diagnoses": [c.text() for c in session.trail],
+            "refused": [f"{s.action}: {s.observation}" for s in session.steps if not s.ok],
+        }
+        self._advance("finish")
+
+    # finish ----------------------------------------------------------------------------------
+
+    def _finish(self, status: str, message: str = "") -> StagedResult:
+        st = self.state
+        result = StagedResult(status, self.out_dir, st, refine=self.refine_report, message=message)
+        if st.source:
+            self.progress("finish", "building the run directory (exports, gates"
+                          + (", battery)" if self.options.simulate else ")"))
+            build = self.tools.final_build(st.source, self.out_dir, simulate=self.options.simulate)
+            result.build = build
+            if status == "ok" and not build.ok:
+                result.status, result.message = "gates_failed", build.reason
+            if status == "ok":
+                self._advance("done")
+        self._write_report(result)
+        return result
+
+    def _write_report(self, result: StagedResult) -> None:
+        path = self.out_dir / "report.json"
+        report = json.loads(path.read_text(encoding="utf-8")) if path.exists() else {}
+        st = self.state
+        per_part = list(st.per_part_s.values())
+        report.update({
+            "status": result.status, "mode": "staged",
+            "options": {k: v for k, v in self.options.__dict__.items() if k != "views"},
+            "prompt": st.prompt,
+            "plan": st.plan, "plan_repairs": st.repairs,
+            "committed": [{"name": c.name, "warning": c.warning} for c in st.committed],
+            "skipped": st.skipped,
+            "refine": result.refine,
+            "overhead_per_part_s": st.per_part_s,
+            "overhead_median_s": sorted(per_part)[len(per_part) // 2] if per_part else None,
+            "usage": self.client.ledger.summary(),
+        })
+        if result.message:
+            report["reason"] = result.message
+        write_atomic(path, json.dumps(report, indent=2, ensure_ascii=False, default=str) + "\n")
+
+
+def _body_name(text: str) -> str | None:
+    try:
+        import ast
+        body = ast.parse(parse_reply(text).body).body
+        return body[0].name if body and isinstance(body[0], ast.FunctionDef) else None
+    except (SpliceError, SyntaxError):
+        return None
+
+
+class _Bench:
+    """The refine session's workbench over a staged run: real renders, critic calls, gated edits."""
+
+    def __init__(self, run: StagedRun) -> None:
+        self.run = run
+        self.last_images: list[Image] = []
+        self.last_legend = ""
+        self._models: dict[str, CompiledModel] = {}
+
+    def _model(self, source: str) -> CompiledModel:
+        if source not in self._models:
+            self._models = {source: self.run.tools.compile(source, self.run.name)}
+        return self._models[source]
+
+    def render(self, source: str, *, views: list[str] | None, close_up: str | None) -> list[Any]:
+        try:
+            imgs, legend = self.run.tools.render(self._model(source), views, close_up=close_up)
+        except (ProceduraError, ValueError) as exc:  # an unknown close-up target, no parts
+            log.info("render refused: %s", exc)
+            imgs, legend = [], self.last_legend
+        self.last_images, self.last_legend = imgs, legend
+        return imgs
+
+    def critique(self, source: str, views: list[Any], trail: list[Critique]) -> Critique:
+        model = self._model(source)
+        parts = {p.name for p in model.parts}
+        earlier = "\n\n".join(f"Review {i + 1}:\n{c.text()}" for i, c in enumerate(trail)) or "none"
+        msgs = [Message.user(f"Object: {self.run.prompt}\nColour legend: {self.last_legend}\n\n"
+                             f"The program:\n```python\n{source}```\n\nEarlier reviews:\n{earlier}\n\n"
+                             "The views of the current build follow.", *self.run._refs(), *views)]
+        text = self.run._call("critic", template("critic_system"), msgs, max_tokens=2000)
+        try:
+            return parse_critique(text, parts=parts)
+        except CritiqueError as exc:
+            msgs += [Message.assistant(text), Message.user(f"{exc}. Reply again in the format asked.")]
+            text = self.run._call("critic", template("critic_system"), msgs, max_tokens=2000)
+            try:
+                return parse_critique(text, parts=parts)
+            except CritiqueError as exc2:
+                return Critique(f"the critic's reply was unreadable twice ({exc2})", ())
+
+    def _n_vis(self, source: str) -> int:
+        from ..gates.connectivity import analyse
+        try:
+            return analyse(self._model(source)).n_vis
+        except ProceduraError:
+            return 0
+
+    def edit_part(self, source: str, part: str, reply: str) -> str:
+        try:
+            result = replace_part(source, reply)
+        except SpliceError as exc:
+            raise EditRefused(str(exc)) from None
+        if result.part != part:
+            raise EditRefused(f"the reply defines part {result.part!r}, not {part!r}")
+        verdict = self.run.tools.gate_part(result.source, part, baseline=self._n_vis(source),
+                                           name=self.run.name)
+        if not verdict.ok:
+            raise EditRefused(_findings_text(verdict.errors, 6).replace("\n", " "))
+        if verdict.model is not None:
+            self._models = {result.source: verdict.model}
+        return result.source
+
+    def set_param(self, source: str, name: str, value: float) -> str:
+        from ..errors import EditError
+        from ..gates import check_model
+        from ..program.edit import set_params
+        try:
+            new = set_params(source, {name: value})
+        except EditError as exc:
+            raise EditRefused(str(exc)) from None
+        before = self.compile(source)
+        try:
+            after = check_model(self._model(new), new)
+        except ProceduraError as exc:
+            raise EditRefused(str(exc)) from None
+        errs = [f for f in after.findings if f.severity == "error"]
+        if len(errs) > len(before.findings):
+            raise EditRefused("it breaks the program: " + _findings_text(errs, 6).replace("\n", " "))
+        return new
+
+    def compile(self, source: str) -> CompileOutcome:
+        from ..gates import check_model
+        from ..gates.connectivity import analyse, floater_findings
+        try:
+            model = self._model(source)
+        except ProceduraError as exc:
+            return CompileOutcome(False, (str(exc),))
+        report = check_model(model, source)
+        errs = tuple(f.message for f in report.findings if f.severity == "error")
+        floaters = tuple(f.message for f in floater_findings(analyse(model)))
+        return CompileOutcome(not errs, errs, floaters)
+
+    def connectivity(self, source: str) -> CompileOutcome:
+        return self.compile(source)
+
+
+
+def generate_staged(prompt: str | None, out_dir: Path, *, model: str, base_url: str | None = None,
+                    options: StagedOptions = StagedOptions(), image: bytes | None = None,
+                    max_cost_usd: float | None = None, timeout_s: float | None = None,
+                    resume: bool = False, progress: Progress | None = None) -> StagedResult:
+    """Run (or resume) a staged generation into ``out_dir`` with the model ``model``.
+
+    Args:
+        prompt: the object to build (None on resume, or with a replay tape: the tape's own).
+        out_dir: the run directory.
+        model: ``provider:model``.
+        resume: continue the run recorded in ``out_dir/state.json``.
+
+    Raises:
+        ConfigError / ProviderError: bad model name or key, unreachable endpoint (one line).
+        ResumeError: ``resume`` on a directory without a staged run.
+    """
+    from ..llm import Ledger, Transcript, get_provider, preflight
+    from ..llm.replay import ReplayProvider
+    state = RunDir(out_dir).load() if resume else None
+    provider = preflight(model, base_url=base_url)
+    if timeout_s is not None:  # checked above; rebuilt with the caller's reply timeout
+        provider = get_provider(model, base_url=base_url, timeout_s=timeout_s)
+    if isinstance(provider, ReplayProvider):
+        if state is not None:
+            provider.skip_before(state.step)
+        if prompt is None:
+            prompt = tape_prompt(provider.path)
+    if state is None:
+        if not prompt:
+            raise StagedError("no prompt: give one, or replay a tape that records one")
+        state = RunState(prompt)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    client = Client(provider, ledger=Ledger(max_cost_usd=max_cost_usd),
+                    transcript=Transcript(out_dir / "transcript.jsonl"))
+    run = StagedRun(state.prompt, out_dir, client=client, options=options, image=image,
+                    progress=progress, state=state)
+    try:
+        return run.run()
+    finally:
+        client.close()  # a replay tape checks here that it was fully consumed
+
+
+def tape_prompt(path: Path) -> str | None:
+    """The prompt a staged tape was recorded for (its first record's ``prompt`` field)."""
+    p = path / "transcript.jsonl" if path.is_dir() else path
+    try:
+        first = json.loads(p.read_text(encoding="utf-8").split("\n", 1)[0])
+    except (OSError, ValueError):
+        return None
+    return first.get("prompt") if isinstance(first, dict) else None

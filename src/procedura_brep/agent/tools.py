@@ -1,0 +1,105 @@
+"""The deterministic side of the staged agent: compile, gate one part, render, final build.
+
+:class:`Tools` is what the stages call between model calls. It has no model in it; tests use
+the real one (small programs compile in a fraction of a second in the warm worker).
+"""
+
+from __future__ import annotations
+
+import io
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..errors import CompileError
+from ..llm import Image
+from ..program.model import CompiledModel, Finding
+
+
+@dataclass
+class PartVerdict:
+    """What the gates say about one newly added (or edited) part."""
+
+    compiled: bool
+    errors: list[Finding] = field(default_factory=list)
+    warnings: list[Finding] = field(default_factory=list)
+    n_vis: int = 0
+    model: CompiledModel | None = None
+
+    @property
+    def ok(self) -> bool:
+        return self.compiled and not self.errors
+
+
+def involves(f: Finding, part: str, own_mates: set[str]) -> bool:
+    """Whether a finding concerns ``part``: it names it, one of its mates, or (interference and
+    other pair findings) mentions it by name in its message."""
+    if f.part == part or (f.mate is not None and f.mate in own_mates):
+        return True
+    if f.part is None and f.mate is None:
+        return True  # a program-wide problem (a compile error without a part)
+    return bool(re.search(rf"(?<![a-z0-9_]){re.escape(part)}(?![a-z0-9_])", f.message))
+
+
+class Tools:
+    """Compile in the warm sandbox worker, gate, render in memory, build the run directory."""
+
+    def __init__(self, *, render_size: int = 384) -> None:
+        self.render_size = render_size
+
+    def compile(self, source: str, name: str = "model") -> CompiledModel:
+        """Compile ``source`` (raises CompileError for a program that does not compile)."""
+        from ..program.sandbox import compile_source
+        return compile_source(source, name=name)
+
+    def gate_part(self, source: str, part: str, *, baseline: int, name: str = "model") -> PartVerdict:
+        """Compile, then the gates on ``part``: its compile findings, its mates, pair findings
+        naming it, and connectivity relative to the running ``baseline`` N_vis."""
+        try:
+            model = self.compile(source, name)
+        except CompileError as exc:
+            return PartVerdict(False, exc.findings or [Finding("compile", str(exc))])
+        if not model.parts:
+            return PartVerdict(False, [f for f in model.findings if f.severity == "error"]
+                               or [Finding("compile", "the program compiled to no parts")], model=model)
+        from ..gates import check_model
+        from ..gates.connectivity import connectivity_gate
+        report = check_model(model, source)
+        own = {m.name for m in model.mates if m.child == part}
+        errors, warnings = [], []
+        compiled = part in {p.name for p in model.parts}
+        for f in report.findings:
+            if f.code in ("floater", "floater-increase"):
+                continue  # judged below, relative to the baseline
+            if involves(f, part, own):
+                (errors if f.severity == "error" else warnings).append(f)
+        cfind, cres = connectivity_gate(model, baseline=baseline)
+        errors += [f for f in cfind if f.severity == "error"]
+        return PartVerdict(compiled, errors, warnings, int(cres.measured.get("n_vis", 0)), model)
+
+    def render(self, model: CompiledModel, views: list[str] | None = None, *,
+               close_up: str | None = None) -> tuple[list[Image], str]:
+        """Parts-colour views as PNG images, and the colour legend as text."""
+        from ..render.api import legend_of, render_images
+        imgs = render_images(model, views, mode="parts", size=self.render_size, focus=close_up)
+        out = []
+        for view, img in imgs.items():
+            buf = io.BytesIO()
+            img.save(buf, format="PNG")
+            out.append(Image(buf.getvalue(), view))
+        legend = ", ".join(f"{name} #{r:02x}{g:02x}{b:02x}" for name, (r, g, b) in
+                           ((n, _rgb255(c)) for n, c in legend_of(model)))
+        return out, legend
+
+    def final_build(self, source: str, out_dir: Path, *, simulate: bool = True) -> Any:
+        """Build the run directory's models and reports from the final program."""
+        from ..pipeline import build
+        return build(out_dir / "program.py", out_dir, source=source, simulate=simulate)
+
+
+def _rgb255(c: Any) -> tuple[int, int, int]:
+    vals = [float(v) for v in c][:3]
+    if all(v <= 1.0 for v in vals):
+        vals = [v * 255 for v in vals]
+    return tuple(int(round(v)) for v in vals)  # type: ignore[return-value]

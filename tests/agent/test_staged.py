@@ -1,0 +1,107 @@
+"""The staged agent end to end through the real pipeline, driven by a hand-written tape."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from procedura_brep.agent.staged import StagedOptions, generate_staged
+
+TAPES = Path(__file__).parents[1] / "tapes"
+LAMP = TAPES / "lamp_staged.jsonl"
+
+
+def test_the_tape_is_labelled_hand_written():
+    first = json.loads(LAMP.read_text().split("\n", 1)[0])
+    assert "HAND-WRITTEN" in first["note"] and first["model"] == "hand-written"
+
+
+@pytest.fixture(scope="module")
+def lamp_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("staged") / "lamp"
+    lines: list[str] = []
+    result = generate_staged(None, out, model=f"replay:{LAMP}", progress=lambda s, t: lines.append(f"{s}: {t}"))
+    return result, out, lines
+
+
+def test_a_replayed_staged_run_ships_a_gated_articulated_model(lamp_run):
+    result, out, lines = lamp_run
+    assert result.status == "ok", result.message
+    report = json.loads((out / "report.json").read_text())
+    assert report["mode"] == "staged" and report["status"] == "ok"
+    assert [c["name"] for c in report["committed"]] == ["base", "post", "arm"] and not report["skipped"]
+    assert report["gates"]["passed"] and report["battery"]["passed"]
+    assert report["plan_repairs"] == ["review: moved arm after its partner(s) post"]
+    assert "chamfered top" in report["plan"]["parts"][1]["description"]  # the review sharpened it
+    for name in ("model.step", "model.glb", "model.usda", "model.xml", "mates.json", "state.json"):
+        assert (out / name).is_file(), name
+    assert set(report["overhead_per_part_s"]) == {"base", "post", "arm"}
+
+
+def test_failed_attempts_feed_back_their_measured_findings(lamp_run):
+    _, out, lines = lamp_run
+    first = (out / "history" / "002-post.attempt-1.txt").read_text()
+    second = (out / "history" / "002-post.attempt-2.txt").read_text()
+    assert "NameError: name 'post_r' is not defined" in first
+    assert "post is not seated on base" in second and "hovers" in second
+    assert any("part 2/3 post: committed (attempt 3)" in line for line in lines)
+    # the model saw them: the third post request carries both findings
+    calls = [json.loads(x) for x in (out / "transcript.jsonl").read_text().splitlines()]
+    post3 = next(c for c in calls if c["role"] == "build" and c["step"] == 5)
+    texts = [m["text"] for m in post3["request"]["messages"]]
+    assert any("post_r" in t for t in texts) and any("hovers" in t for t in texts)
+
+
+def test_refine_refuses_an_undiagnosed_edit_and_applies_the_diagnosed_one(lamp_run):
+    result, out, _ = lamp_run
+    refine = result.refine
+    assert refine["verdict"] == "ok" and refine["edits"] == 1
+    assert refine["refused"] == ["set_param: refused: an edit needs a fresh diagnosis; diagnose first "
+                                 "(one diagnosis allows one edit)"]
+    assert "[HIGH] arm" in refine["diagnoses"][0] and refine["diagnoses"][1].endswith("none")
+    program = (out / "program.py").read_text()
+    assert "arm_l = 90.0" in program and "arm_l = 60.0" not in program
+    assert (out / "history" / "004-refine-edit_part.py").read_text() == program
+
+
+def test_a_killed_run_resumes_to_the_same_program(tmp_path, lamp_run):
+    _, whole, _ = lamp_run
+    out = tmp_path / "killed"
+    code = ("import sys; from pathlib import Path; from procedura_brep.agent.staged import generate_staged, "
+            "StagedOptions; generate_staged(None, Path(sys.argv[1]), model='replay:' + sys.argv[2], "
+            "options=StagedOptions(simulate=False))")
+    proc = subprocess.Popen([sys.executable, "-c", code, str(out), str(LAMP)], start_new_session=True,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 240
+    try:
+        while time.monotonic() < deadline and proc.poll() is None:
+            try:
+                state = json.loads((out / "state.json").read_text())
+            except (OSError, ValueError):
+                state = {}
+            if len(state.get("committed", [])) >= 2:
+                os.killpg(proc.pid, signal.SIGKILL)  # the process and its compile worker
+                break
+            time.sleep(0.01)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait(30)
+    assert proc.returncode == -signal.SIGKILL, "the run ended before it could be killed"
+    state = json.loads((out / "state.json").read_text())
+    assert [c["name"] for c in state["committed"]][:2] == ["base", "post"] and state["stage"] == "build"
+    killed_at = state["step"]
+    result = generate_staged(None, out, model=f"replay:{LAMP}", resume=True,
+                             options=StagedOptions(simulate=False))
+    assert result.status == "ok", result.message
+    assert (out / "program.py").read_text() == (whole / "program.py").read_text()
+    steps = [json.loads(x)["step"] for x in (out / "transcript.jsonl").read_text().splitlines()]
+    assert steps == sorted(steps) and len(steps) == len(set(steps)) == 16  # no call made twice
+    assert min(s for s in steps if s >= killed_at) == killed_at
