@@ -6,6 +6,7 @@ from __future__ import annotations
 import inspect
 from functools import lru_cache
 from pathlib import Path
+from typing import Any
 
 PROMPTS = Path(__file__).parent / "prompts"
 
@@ -23,13 +24,78 @@ def reference() -> str:
     out = ["## The program API", inspect.cleandoc(api.__doc__ or "")]
     for fn in (api.part, api.frames, api.mate):
         out.append(f"### {fn.__name__}{inspect.signature(fn)}\n{inspect.cleandoc(fn.__doc__ or '')}")
-    out.append("## Mate types (type: DOF; fits, default first; options)")
+    out.append("## Mate types (type: DOF; fits, default first; every option: default, range, meaning)")
     for t in TYPES.values():
-        opts = ", ".join(f"{k}={o.default!r}" for k, o in t.options.items())
         fits = ", ".join([t.default_fit] + [f for f in t.fits if f != t.default_fit])
-        out.append(f"- {t.name} ({t.kind}, {t.dof.count} DOF): {t.doc}. fits: {fits}. options: {opts}")
-    out.append("## Materials\n" + ", ".join(materials.MATERIALS))
+        rows = [f"- {t.name} ({t.kind}, {t.dof.count} DOF): {t.doc}. fits: {fits}. options:"]
+        rows += [f"    - {option_line(k, o)}" for k, o in t.options.items()]
+        out.append("\n".join(rows))
+    out.append(conventions())
+    out.append("## Materials (key: class, density kg/m^3; parts are solid, so masses follow)\n" + ", ".join(
+        f"{m.name} ({m.material_class}, {m.density:g})" for m in materials.MATERIALS.values()))
     return "\n\n".join(out)
+
+
+def option_line(name: str, opt: Any) -> str:
+    """``name = default, range [lo, hi]: meaning (unit)`` for one mate option."""
+    if opt.low is not None and opt.high is not None:
+        rng = f"{'whole number in ' if opt.integer else ''}[{opt.low:g}, {opt.high:g}]"
+    elif isinstance(opt.default, bool):
+        rng = "True or False"
+    else:
+        rng = "any"
+    return f"{name} = {opt.default!r}, range {rng}: {opt.doc}"
+
+
+#: Location rotations of the frames a program needs most, as (rotation, where +Z points, where
+#: +X points). tests/agent/test_reference.py checks every row against build123d itself.
+FRAME_ROTATIONS: tuple[tuple[tuple[int, int, int], str, str], ...] = (
+    ((0, 0, 0), "+Z", "+X"),
+    ((180, 0, 0), "-Z", "+X"),
+    ((-90, 0, 0), "+Y", "+X"),
+    ((90, 0, 0), "-Y", "+X"),
+    ((0, 90, 0), "+X", "-Z"),
+    ((0, -90, 0), "-X", "+Z"),
+)
+
+
+def conventions() -> str:
+    """Frames, motion, the language and the numeric gate limits, read from the code."""
+    from ..config import TOL
+    from ..mates.fits import BANDS_MM, ISO273_MM, iso286
+    from ..program.policy import FORBIDDEN_NAMES
+    rows = ["## Conventions", "Lengths in mm, angles in degrees.",
+            "`Location((x, y, z), (rx, ry, rz))`: the rotation is Rx(rx)\u00b7Ry(ry)\u00b7Rz(rz) (about X, then "
+            "the new Y, then the new Z). Frames you will need:"]
+    rows += [f"- `Location((x, y, z), {r})`: +Z along {z}, +X along {x}" for r, z, x in FRAME_ROTATIONS]
+    rows += [
+        "`Pos(x, y, z) * shape` moves and `Rot(rx, ry, rz) * shape` turns a shape (same rotation rule); "
+        "both are in scope, with every build123d solid, sketch and operation (Box, Cylinder, Sphere, "
+        "Cone, Torus, extrude, revolve, fillet, chamfer, Align, Axis, Plane ...).",
+        "Motion: a revolute turns the child about +Z of its frame, positive by the right-hand rule; a "
+        "prismatic moves the child along +Z (away from the parent) for positive values; a spherical "
+        "joint turns about the frame origin within `cone`. `home` (the pose the child is built in) "
+        "must lie inside `limits`.",
+        "The language: params are numbers or expressions of numbers, earlier params and `math`; helpers "
+        "and parts are plain functions (loops, comprehensions, conditionals are fine); frames and "
+        "assembly may use expressions and loops too. Forbidden: imports other than `math`, names or "
+        "attributes starting with `_`, assignment to attributes, and the names "
+        + ", ".join(sorted(FORBIDDEN_NAMES)) + ".",
+        f"Fits: ISO 286 bands for nominals up to {BANDS_MM[-1]} mm (a larger or non-positive nominal "
+        "is a compile error naming the mate). Bolt patterns take ISO 273 M-sizes: "
+        + ", ".join(f"M{k:g}" for k in ISO273_MM) + " (any other size is an error listing these).",
+        "## Gate limits (what the tool measures on every part)",
+        f"- mate gate, every static mate of nominal d: bearing area around the frame >= "
+        f"{TOL.registration_tau:g} d^2, counting faces within {TOL.registration_band_mm:g} mm of each other; "
+        f"penetration <= the fit's own interference + {TOL.penetration_slack_mm:g} mm "
+        f"(e.g. d = 10 mm press fit: {max(0.0, -iso286(10.0, 'press').offset):.4f} + "
+        f"{TOL.penetration_slack_mm:g} mm).",
+        f"- connectivity: pieces closer than {TOL.connect_mm:g} mm touch; a piece whose box side is at "
+        f"least {TOL.span_tau:g} of the model's largest side and touches nothing is a visible floater "
+        "(the build refuses a part that adds one).",
+        "- compile: every part is a valid, non-empty solid; an exception names the part and the line.",
+    ]
+    return "\n".join(rows)
 
 
 def system_prompt() -> str:

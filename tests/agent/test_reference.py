@@ -1,0 +1,43 @@
+"""The reference a model is shown is generated from the code and says what the compiler does."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from procedura_brep.agent.prompts import FRAME_ROTATIONS, reference
+from procedura_brep.mates import TYPES
+
+
+def test_every_option_of_every_mate_type_has_its_range_and_meaning():
+    ref = reference()
+    for t in TYPES.values():
+        block = ref.split(f"- {t.name} (", 1)[1].split("\n- ", 1)[0]
+        for name, opt in t.options.items():
+            line = next((x for x in block.splitlines() if x.strip().startswith(f"- {name} = ")), None)
+            assert line is not None, (t.name, name)
+            assert opt.doc and opt.doc in line, (t.name, name)
+            if opt.low is not None:
+                assert f"[{opt.low:g}, {opt.high:g}]" in line, (t.name, name)
+        assert all(f in block for f in t.fits)
+
+
+def test_stated_frame_rotations_are_build123d_s():
+    b3d = pytest.importorskip("build123d")
+    axes = {"+X": (1, 0, 0), "-X": (-1, 0, 0), "+Y": (0, 1, 0), "-Y": (0, -1, 0), "+Z": (0, 0, 1), "-Z": (0, 0, -1)}
+    for rot, z, x in FRAME_ROTATIONS:
+        loc = b3d.Location((0, 0, 0), rot)
+        got_z = (loc * b3d.Location((0, 0, 1))).position
+        got_x = (loc * b3d.Location((1, 0, 0))).position
+        assert np.allclose(tuple(got_z), axes[z], atol=1e-9), rot
+        assert np.allclose(tuple(got_x), axes[x], atol=1e-9), rot
+
+
+def test_reference_states_the_gate_limits_and_densities():
+    from procedura_brep.config import TOL
+    from procedura_brep.materials import MATERIALS
+    ref = reference()
+    assert f">= {TOL.registration_tau:g} d^2" in ref and f"at least {TOL.span_tau:g}" in ref
+    assert f"closer than {TOL.connect_mm:g} mm" in ref
+    assert all(f"{m.name} ({m.material_class}, {m.density:g})" in ref for m in MATERIALS.values())
+    assert "M64" in ref and "up to 500 mm" in ref and "`home`" in ref
