@@ -11,7 +11,7 @@ from procedura_brep import kernel
 from procedura_brep.program.sections import parse_sections
 from procedura_brep.program.splice import SpliceError, empty_program, parse_reply, replace_part, splice
 
-from .splice_helpers import part_replies
+from procedura_brep.testing.tapes import part_replies
 
 ROOT = Path(__file__).parents[2]
 LAMP = (Path(__file__).parent / "lamp.py").read_text()

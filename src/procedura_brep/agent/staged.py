@@ -251,10 +251,11 @@ class StagedRun:
 
     def _build_part(self, system: str, plan: Plan, part: PlannedPart) -> None:
         k = plan.index(part.name) + 1
+        t_views = time.perf_counter()
         views, legend = self._views()
         history: list[Message] = []
         candidate: tuple[Any, PartVerdict] | None = None
-        overhead = 0.0
+        overhead = time.perf_counter() - t_views  # deterministic work: renders, splice, gates, writes
         header = empty_program(self.prompt)
         for attempt in range(1, self.options.attempts + 1):
             req = build_request(step=self.state.step, system=system, prompt=self.prompt, plan=plan,
@@ -266,8 +267,7 @@ class StagedRun:
             feedback, verdict, result = self._try_part(reply.text, part.name)
             if verdict is not None and verdict.compiled:
                 if verdict.ok:
-                    overhead += time.perf_counter() - t0
-                    self._commit(result, verdict, overhead=overhead)
+                    self._commit(result, verdict, overhead=overhead + time.perf_counter() - t0)
                     self.progress("build", f"part {k}/{len(plan.parts)} {part.name}: committed "
                                   f"(attempt {attempt})")
                     return
@@ -304,13 +304,14 @@ class StagedRun:
         return (_findings_text(verdict.errors) if verdict.errors else ""), verdict, result
 
     def _commit(self, result: Any, verdict: PartVerdict, *, overhead: float, warning: str = "") -> None:
+        t0 = time.perf_counter()
         st = self.state
         st.source = result.source
         st.committed.append(CommittedPart(result.part, result.as_reply(), warning))
         st.baseline = max(st.baseline, verdict.n_vis) if warning else verdict.n_vis
-        st.per_part_s[result.part] = round(overhead, 4)
         self._model = verdict.model
         self.dir.commit(st, result.part)
+        st.per_part_s[result.part] = round(overhead + time.perf_counter() - t0, 4)
 
     def _build_unplanned(self, system: str) -> None:
         """--no-plan: the model names and writes each next part until it answers DONE."""
