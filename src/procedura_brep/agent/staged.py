@@ -27,13 +27,12 @@ from ..errors import ProceduraError
 from ..llm import Client, Image, Message, Request, Settings
 from ..llm.errors import BudgetExceeded
 from ..paths import write_atomic
-from ..program.model import CompiledModel, Finding
-from ..program.splice import SpliceError, empty_program, parse_reply, replace_part, splice
-from .actions import ActionError, CompileOutcome, EditRefused, RefineSession, Step, parse_action
+from ..program.model import CompiledModel
+from ..program.splice import SpliceError, empty_program, parse_reply, splice
 from .context import CommittedPart, build_request
-from .critic import Critique, CritiqueError, parse_critique
 from .plan import Plan, PlanError, PlannedPart, parse_plan
 from .prompts import reference, template
+from .refine import findings_text, refine
 from .review import enforce_review
 from .rundir import RunDir, RunState
 from .tools import PartVerdict, Tools
@@ -79,13 +78,6 @@ class StagedResult:
 def _mate_table() -> str:
     from ..mates import TYPES
     return "\n".join(f"- {t.name} ({t.kind}, {t.dof.count} DOF): {t.doc}" for t in TYPES.values())
-
-
-def _findings_text(findings: list[Finding], limit: int = 12) -> str:
-    rows = [f"- {f.message}" + (f" (line {f.line})" if f.line else "") for f in findings[:limit]]
-    if len(findings) > limit:
-        rows.append(f"- ... and {len(findings) - limit} more")
-    return "\n".join(rows) or "- (no details)"
 
 
 class StagedRun:
@@ -300,8 +292,8 @@ class StagedRun:
                     None, None)
         verdict = self.tools.gate_part(result.source, name, baseline=self.state.baseline, name=self.name)
         if not verdict.compiled:
-            return _findings_text(verdict.errors), verdict, result
-        return (_findings_text(verdict.errors) if verdict.errors else ""), verdict, result
+            return findings_text(verdict.errors), verdict, result
+        return (findings_text(verdict.errors) if verdict.errors else ""), verdict, result
 
     def _commit(self, result: Any, verdict: PartVerdict, *, overhead: float, warning: str = "") -> None:
         t0 = time.perf_counter()
@@ -344,44 +336,17 @@ class StagedRun:
         if not self.options.refine:
             self._advance("finish")
             return
-        from ..render.views import VIEWS
-        bench = _Bench(self)
-        session = RefineSession(bench, self.state.source, max_edits=self.options.max_edits,
-                                max_actions=self.options.max_actions)
-        system = (template("fixer_system").replace("{views}", ", ".join(VIEWS))
-                  .replace("{edits}", str(self.options.max_edits)))
         model = self._current_model()
         parts = ", ".join(p.name for p in model.parts) if model else ""
-        msgs: list[Message] = [Message.user(
-            f"Object: {self.prompt}\nParts: {parts}\n\nThe program:\n```python\n{self.state.source}```\n\n"
-            "Start by rendering views of the build.", *self._refs())]
-        while not session.done:
-            text = self._call("fixer", system, msgs, max_tokens=8000)
-            msgs.append(Message.assistant(text))
-            try:
-                action = parse_action(text, view_names=tuple(VIEWS))
-            except ActionError as exc:
-                session.steps.append(Step("invalid", False, str(exc)))
-                if len(session.steps) >= session.max_actions:
-                    session.end("steps")
-                msgs.append(Message.user(f"invalid action: {exc}"))
-                continue
-            step = session.run(action)
-            if step.ok and action.name in ("edit_part", "set_param"):
-                write_atomic(self.out_dir / "history" /
-                             f"{len(self.state.committed) + session.edits:03d}-refine-{action.name}.py",
-                             session.source)
-            images = bench.last_images if action.name == "render" and step.ok else []
-            msgs.append(Message.user(step.observation, *images))
-            self.progress("refine", f"{action.name}: {step.observation.splitlines()[0][:120]}")
-        if session.source != self.state.source:
-            self.state.source = session.source
+        intro = (f"Object: {self.prompt}\nParts: {parts}\n\nThe program:\n```python\n{self.state.source}```\n\n"
+                 "Start by rendering views of the build.")
+        source, self.refine_report = refine(self, self.state.source, intro=intro,
+                                            max_edits=self.options.max_edits,
+                                            max_actions=self.options.max_actions,
+                                            history_from=len(self.state.committed))
+        if source != self.state.source:
+            self.state.source = source
             self._model = None
-        self.refine_report = {
-            "verdict": session.verdict, "edits": session.edits, "actions": len(session.steps),
-            "diagnoses": [c.text() for c in session.trail],
-            "refused": [f"{s.action}: {s.observation}" for s in session.steps if not s.ok],
-        }
         self._advance("finish")
 
     # finish ----------------------------------------------------------------------------------
@@ -430,104 +395,6 @@ def _body_name(text: str) -> str | None:
         return body[0].name if body and isinstance(body[0], ast.FunctionDef) else None
     except (SpliceError, SyntaxError):
         return None
-
-
-class _Bench:
-    """The refine session's workbench over a staged run: real renders, critic calls, gated edits."""
-
-    def __init__(self, run: StagedRun) -> None:
-        self.run = run
-        self.last_images: list[Image] = []
-        self.last_legend = ""
-        self._models: dict[str, CompiledModel] = {}
-
-    def _model(self, source: str) -> CompiledModel:
-        if source not in self._models:
-            self._models = {source: self.run.tools.compile(source, self.run.name)}
-        return self._models[source]
-
-    def render(self, source: str, *, views: list[str] | None, close_up: str | None) -> list[Any]:
-        try:
-            imgs, legend = self.run.tools.render(self._model(source), views, close_up=close_up)
-        except (ProceduraError, ValueError) as exc:  # an unknown close-up target, no parts
-            log.info("render refused: %s", exc)
-            imgs, legend = [], self.last_legend
-        self.last_images, self.last_legend = imgs, legend
-        return imgs
-
-    def critique(self, source: str, views: list[Any], trail: list[Critique]) -> Critique:
-        model = self._model(source)
-        parts = {p.name for p in model.parts}
-        earlier = "\n\n".join(f"Review {i + 1}:\n{c.text()}" for i, c in enumerate(trail)) or "none"
-        msgs = [Message.user(f"Object: {self.run.prompt}\nColour legend: {self.last_legend}\n\n"
-                             f"The program:\n```python\n{source}```\n\nEarlier reviews:\n{earlier}\n\n"
-                             "The views of the current build follow.", *self.run._refs(), *views)]
-        text = self.run._call("critic", template("critic_system"), msgs, max_tokens=2000)
-        try:
-            return parse_critique(text, parts=parts)
-        except CritiqueError as exc:
-            msgs += [Message.assistant(text), Message.user(f"{exc}. Reply again in the format asked.")]
-            text = self.run._call("critic", template("critic_system"), msgs, max_tokens=2000)
-            try:
-                return parse_critique(text, parts=parts)
-            except CritiqueError as exc2:
-                return Critique(f"the critic's reply was unreadable twice ({exc2})", ())
-
-    def _n_vis(self, source: str) -> int:
-        from ..gates.connectivity import analyse
-        try:
-            return analyse(self._model(source)).n_vis
-        except ProceduraError:
-            return 0
-
-    def edit_part(self, source: str, part: str, reply: str) -> str:
-        try:
-            result = replace_part(source, reply)
-        except SpliceError as exc:
-            raise EditRefused(str(exc)) from None
-        if result.part != part:
-            raise EditRefused(f"the reply defines part {result.part!r}, not {part!r}")
-        verdict = self.run.tools.gate_part(result.source, part, baseline=self._n_vis(source),
-                                           name=self.run.name)
-        if not verdict.ok:
-            raise EditRefused(_findings_text(verdict.errors, 6).replace("\n", " "))
-        if verdict.model is not None:
-            self._models = {result.source: verdict.model}
-        return result.source
-
-    def set_param(self, source: str, name: str, value: float) -> str:
-        from ..errors import EditError
-        from ..gates import check_model
-        from ..program.edit import set_params
-        try:
-            new = set_params(source, {name: value})
-        except EditError as exc:
-            raise EditRefused(str(exc)) from None
-        before = self.compile(source)
-        try:
-            after = check_model(self._model(new), new)
-        except ProceduraError as exc:
-            raise EditRefused(str(exc)) from None
-        errs = [f for f in after.findings if f.severity == "error"]
-        if len(errs) > len(before.findings):
-            raise EditRefused("it breaks the program: " + _findings_text(errs, 6).replace("\n", " "))
-        return new
-
-    def compile(self, source: str) -> CompileOutcome:
-        from ..gates import check_model
-        from ..gates.connectivity import analyse, floater_findings
-        try:
-            model = self._model(source)
-        except ProceduraError as exc:
-            return CompileOutcome(False, (str(exc),))
-        report = check_model(model, source)
-        errs = tuple(f.message for f in report.findings if f.severity == "error")
-        floaters = tuple(f.message for f in floater_findings(analyse(model)))
-        return CompileOutcome(not errs, errs, floaters)
-
-    def connectivity(self, source: str) -> CompileOutcome:
-        return self.compile(source)
-
 
 
 def generate_staged(prompt: str | None, out_dir: Path, *, model: str, base_url: str | None = None,

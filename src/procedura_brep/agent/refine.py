@@ -1,0 +1,214 @@
+"""The refine loop over a real program: the fixer's turns, a workbench of real renders, critic
+calls and gated edits (:class:`RefineBench`), and the invariants of :mod:`.actions`.
+
+Used by the staged run (after the build) and by ``revise`` (a person's change request, with the
+edits restricted to the parts it names or the critic localises).
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any, Protocol
+
+from ..errors import ProceduraError
+from ..llm import Image, Message
+from ..paths import write_atomic
+from ..program.model import CompiledModel, Finding
+from ..program.splice import SpliceError, replace_part
+from .actions import (
+    ActionError,
+    CompileOutcome,
+    EditRefused,
+    RefineSession,
+    Step,
+    parse_action,
+)
+from .critic import Critique, CritiqueError, parse_critique
+from .prompts import template
+from .tools import Tools
+
+log = logging.getLogger(__name__)
+
+
+class Host(Protocol):
+    """What the loop needs from the run that hosts it."""
+
+    tools: Tools
+    name: str
+    prompt: str
+    out_dir: Path
+
+    def _call(self, role: str, system: str, messages: list[Message], *, max_tokens: int = ...) -> str: ...
+
+    def _refs(self) -> list[Image]: ...
+
+    def progress(self, stage: str, text: str) -> None: ...
+
+
+def findings_text(findings: list[Finding], limit: int = 12) -> str:
+    """Findings as model feedback: one ``- message (line N)`` row each, capped."""
+    rows = [f"- {f.message}" + (f" (line {f.line})" if f.line else "") for f in findings[:limit]]
+    if len(findings) > limit:
+        rows.append(f"- ... and {len(findings) - limit} more")
+    return "\n".join(rows) or "- (no details)"
+
+
+def refine(host: Host, source: str, *, intro: str, max_edits: int, max_actions: int,
+           history_from: int = 0, critic_system: str | None = None, task: str | None = None,
+           allowed: set[str] | None = None, stage: str = "refine",
+           roles: tuple[str, str] = ("fixer", "critic")) -> tuple[str, dict[str, Any]]:
+    """Run the fixer until it finishes (or its budgets end); return the program and a report.
+
+    Args:
+        host: the run (model calls, tools, progress).
+        source: the program to refine.
+        intro: the fixer's first message.
+        history_from: numbering of the ``history/`` files written after each applied edit.
+        critic_system: the critic's system prompt (default ``critic_system.md``).
+        task: shown to the critic as what the build must satisfy (default: the prompt).
+        allowed: edits touch only these parts (None: any); a critique may widen the set to the
+            parts it names when ``allowed`` is empty.
+        roles: the (fixer, critic) roles of the calls.
+    """
+    from ..render.views import VIEWS
+    bench = RefineBench(host, critic_system=critic_system, task=task, allowed=allowed, critic_role=roles[1])
+    session = RefineSession(bench, source, max_edits=max_edits, max_actions=max_actions)
+    system = (template("fixer_system").replace("{views}", ", ".join(VIEWS)).replace("{edits}", str(max_edits)))
+    msgs: list[Message] = [Message.user(intro, *host._refs())]
+    while not session.done:
+        text = host._call(roles[0], system, msgs, max_tokens=8000)
+        msgs.append(Message.assistant(text))
+        try:
+            action = parse_action(text, view_names=tuple(VIEWS))
+        except ActionError as exc:
+            session.steps.append(Step("invalid", False, str(exc)))
+            if len(session.steps) >= session.max_actions:
+                session.end("steps")
+            msgs.append(Message.user(f"invalid action: {exc}"))
+            continue
+        step = session.run(action)
+        if step.ok and action.name in ("edit_part", "set_param"):
+            write_atomic(host.out_dir / "history" / f"{history_from + session.edits:03d}-{stage}-{action.name}.py",
+                         session.source)
+        images = bench.last_images if action.name == "render" and step.ok else []
+        msgs.append(Message.user(step.observation, *images))
+        host.progress(stage, f"{action.name}: {step.observation.splitlines()[0][:120]}")
+    report = {
+        "verdict": session.verdict, "edits": session.edits, "actions": len(session.steps),
+        "diagnoses": [c.text() for c in session.trail],
+        "refused": [f"{s.action}: {s.observation}" for s in session.steps if not s.ok],
+    }
+    if allowed is not None:
+        report["allowed_parts"] = sorted(bench.allowed or ())
+    return session.source, report
+
+
+class RefineBench:
+    """The refine session's workbench over a host run: real renders, critic calls, gated edits."""
+
+    def __init__(self, host: Host, *, critic_system: str | None = None, task: str | None = None,
+                 allowed: set[str] | None = None, critic_role: str = "critic") -> None:
+        self.host = host
+        self.critic_system = critic_system or template("critic_system")
+        self.task = task
+        self.allowed = set(allowed) if allowed is not None else None
+        self.localise = allowed is not None and not allowed
+        self.critic_role = critic_role
+        self.last_images: list[Image] = []
+        self.last_legend = ""
+        self._models: dict[str, CompiledModel] = {}
+
+    def _model(self, source: str) -> CompiledModel:
+        if source not in self._models:
+            self._models = {source: self.host.tools.compile(source, self.host.name)}
+        return self._models[source]
+
+    def render(self, source: str, *, views: list[str] | None, close_up: str | None) -> list[Any]:
+        try:
+            imgs, legend = self.host.tools.render(self._model(source), views, close_up=close_up)
+        except (ProceduraError, ValueError) as exc:  # an unknown close-up target, no parts
+            log.info("render refused: %s", exc)
+            imgs, legend = [], self.last_legend
+        self.last_images, self.last_legend = imgs, legend
+        return imgs
+
+    def critique(self, source: str, views: list[Any], trail: list[Critique]) -> Critique:
+        model = self._model(source)
+        parts = {p.name for p in model.parts}
+        earlier = "\n\n".join(f"Review {i + 1}:\n{c.text()}" for i, c in enumerate(trail)) or "none"
+        task = self.task or f"Object: {self.host.prompt}"
+        msgs = [Message.user(f"{task}\nColour legend: {self.last_legend}\n\n"
+                             f"The program:\n```python\n{source}```\n\nEarlier reviews:\n{earlier}\n\n"
+                             "The views of the current build follow.", *self.host._refs(), *views)]
+        crit = None
+        for _ in range(2):
+            text = self.host._call(self.critic_role, self.critic_system, msgs, max_tokens=2000)
+            try:
+                crit = parse_critique(text, parts=parts)
+                break
+            except CritiqueError as exc:
+                msgs += [Message.assistant(text), Message.user(f"{exc}. Reply again in the format asked.")]
+        if crit is None:
+            return Critique("the critic's reply was unreadable twice", ())
+        if self.localise and self.allowed is not None:
+            self.allowed |= {i.part for i in crit.issues}
+        return crit
+
+    def _n_vis(self, source: str) -> int:
+        from ..gates.connectivity import analyse
+        try:
+            return analyse(self._model(source)).n_vis
+        except ProceduraError:
+            return 0
+
+    def edit_part(self, source: str, part: str, reply: str) -> str:
+        if self.allowed is not None and part not in self.allowed:
+            scope = ", ".join(sorted(self.allowed)) or "the parts the review names"
+            raise EditRefused(f"this change may touch only {scope}, not {part}")
+        try:
+            result = replace_part(source, reply)
+        except SpliceError as exc:
+            raise EditRefused(str(exc)) from None
+        if result.part != part:
+            raise EditRefused(f"the reply defines part {result.part!r}, not {part!r}")
+        verdict = self.host.tools.gate_part(result.source, part, baseline=self._n_vis(source),
+                                            name=self.host.name)
+        if not verdict.ok:
+            raise EditRefused(findings_text(verdict.errors, 6).replace("\n", " "))
+        if verdict.model is not None:
+            self._models = {result.source: verdict.model}
+        return result.source
+
+    def set_param(self, source: str, name: str, value: float) -> str:
+        from ..errors import EditError
+        from ..gates import check_model
+        from ..program.edit import set_params
+        try:
+            new = set_params(source, {name: value})
+        except EditError as exc:
+            raise EditRefused(str(exc)) from None
+        before = self.compile(source)
+        try:
+            after = check_model(self._model(new), new)
+        except ProceduraError as exc:
+            raise EditRefused(str(exc)) from None
+        errs = [f for f in after.findings if f.severity == "error"]
+        if len(errs) > len(before.findings):
+            raise EditRefused("it breaks the program: " + findings_text(errs, 6).replace("\n", " "))
+        return new
+
+    def compile(self, source: str) -> CompileOutcome:
+        from ..gates import check_model
+        from ..gates.connectivity import analyse, floater_findings
+        try:
+            model = self._model(source)
+        except ProceduraError as exc:
+            return CompileOutcome(False, (str(exc),))
+        report = check_model(model, source)
+        errs = tuple(f.message for f in report.findings if f.severity == "error")
+        floaters = tuple(f.message for f in floater_findings(analyse(model)))
+        return CompileOutcome(not errs, errs, floaters)
+
+    def connectivity(self, source: str) -> CompileOutcome:
+        return self.compile(source)
