@@ -57,7 +57,8 @@ def findings_text(findings: list[Finding], limit: int = 12) -> str:
 def refine(host: Host, source: str, *, intro: str, max_edits: int, max_actions: int,
            history_from: int = 0, critic_system: str | None = None, task: str | None = None,
            allowed: set[str] | None = None, stage: str = "refine",
-           roles: tuple[str, str] = ("fixer", "critic")) -> tuple[str, dict[str, Any]]:
+           roles: tuple[str, str] = ("fixer", "critic"),
+           bench_type: type[RefineBench] | None = None) -> tuple[str, dict[str, Any]]:
     """Run the fixer until it finishes (or its budgets end); return the program and a report.
 
     Args:
@@ -70,9 +71,10 @@ def refine(host: Host, source: str, *, intro: str, max_edits: int, max_actions: 
         allowed: edits touch only these parts (None: any); a critique may widen the set to the
             parts it names when ``allowed`` is empty.
         roles: the (fixer, critic) roles of the calls.
+        bench_type: a :class:`RefineBench` subclass with stricter edit rules (revise).
     """
     from ..render.views import VIEWS
-    bench = RefineBench(host, critic_system=critic_system, task=task, allowed=allowed, critic_role=roles[1])
+    bench = (bench_type or RefineBench)(host, critic_system=critic_system, task=task, allowed=allowed, critic_role=roles[1])
     session = RefineSession(bench, source, max_edits=max_edits, max_actions=max_actions)
     system = (template("fixer_system").replace("{views}", ", ".join(VIEWS)).replace("{edits}", str(max_edits)))
     msgs: list[Message] = [Message.user(intro, *host._refs())]

@@ -524,3 +524,35 @@ def _line_map(source: str, texts: dict[str, list[tuple[str, int]]]) -> dict[int,
                 out.update(hits)
                 break
     return out
+
+
+def program_parts(source: str) -> list[str]:
+    """The program's part names, in order."""
+    return list(_Program.read(source.replace("\r\n", "\n")).parts)
+
+
+def param_readers(source: str) -> dict[str, set[str]]:
+    """Which parts read each param: through their function, the helpers it calls (transitively),
+    their frames, their mates (options and nominals), or params derived from it."""
+    prog = _Program.read(source.replace("\r\n", "\n"))
+
+    def names(node: ast.AST) -> set[str]:
+        out = {n.id for n in ast.walk(node) if isinstance(n, ast.Name)}
+        return out | {n.value for n in ast.walk(node) if isinstance(n, ast.Constant) and isinstance(n.value, str)}
+
+    reads: dict[str, set[str]] = {p: set() for p in prog.parts}
+    for section in ("parts", "frames", "assembly"):
+        for stmt in prog.statements(section):
+            owner = _owner(section, stmt)
+            if owner in reads:
+                reads[owner] |= names(stmt)
+    for part, seen in reads.items():
+        todo = [n for n in seen if n in prog.helpers or n in prog.params]
+        while todo:
+            n = todo.pop()
+            node = prog.helpers.get(n) or prog.params[n].value
+            for m in names(node) - seen:
+                seen.add(m)
+                if m in prog.helpers or m in prog.params:
+                    todo.append(m)
+    return {p: {part for part, seen in reads.items() if p in seen} for p in prog.params}
