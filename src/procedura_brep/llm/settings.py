@@ -1,0 +1,80 @@
+"""Which model a command uses when ``--model`` is not given: one place, one order.
+
+1. ``--model`` on the command line;
+2. the environment variable ``PROCEDURA_BREP_MODEL`` (and ``PROCEDURA_BREP_BASE_URL`` for the
+   endpoint, already read by the openai provider);
+3. the user config file: ``$PROCEDURA_BREP_CONFIG``, else ``$XDG_CONFIG_HOME/procedura-brep/config.toml``
+   (``~/.config/procedura-brep/config.toml``), a TOML file such as::
+
+       model = "openai:gpt-4o"
+       base_url = "http://localhost:11434/v1"   # optional
+
+The result says where the model came from, so ``doctor`` can show which setting is in force.
+"""
+
+from __future__ import annotations
+
+import os
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+from .errors import ConfigError
+
+__all__ = ["ENV_CONFIG", "ENV_MODEL", "ModelSetting", "config_path", "resolve_model"]
+
+ENV_MODEL = "PROCEDURA_BREP_MODEL"
+ENV_CONFIG = "PROCEDURA_BREP_CONFIG"
+
+
+@dataclass(frozen=True)
+class ModelSetting:
+    """The model in force: ``provider:model``, an optional base URL, and where they came from."""
+
+    model: str | None
+    base_url: str | None
+    source: str  # "--model", "PROCEDURA_BREP_MODEL", "<config path>", or "none"
+
+
+def config_path() -> Path:
+    """The user config file path (it may not exist)."""
+    if os.environ.get(ENV_CONFIG):
+        return Path(os.environ[ENV_CONFIG]).expanduser()
+    base = Path(os.environ.get("XDG_CONFIG_HOME") or Path.home() / ".config")
+    return base / "procedura-brep" / "config.toml"
+
+
+def _read_config(path: Path) -> dict:
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        return {}
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read the config file {path}: {exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"config file {path} is not valid TOML: {exc}") from None
+    for key in ("model", "base_url"):
+        if key in data and not isinstance(data[key], str):
+            raise ConfigError(f"config file {path}: {key} must be a string, got {data[key]!r}")
+    unknown = sorted(set(data) - {"model", "base_url"})
+    if unknown:
+        raise ConfigError(f"config file {path}: unknown key(s) {', '.join(unknown)}; keys: model, base_url")
+    return data
+
+
+def resolve_model(model: str | None = None, base_url: str | None = None) -> ModelSetting:
+    """The model to use: the argument, else the environment, else the config file.
+
+    Raises:
+        ConfigError: the config file exists but cannot be read or has unknown keys.
+    """
+    if model:
+        return ModelSetting(model, base_url, "--model")
+    env = os.environ.get(ENV_MODEL, "").strip()
+    if env:
+        return ModelSetting(env, base_url, ENV_MODEL)
+    path = config_path()
+    data = _read_config(path)
+    if data.get("model"):
+        return ModelSetting(data["model"], base_url or data.get("base_url"), str(path))
+    return ModelSetting(None, base_url, "none")
