@@ -125,3 +125,34 @@ def write_tape(path, rows: list[dict]) -> None:
     import json
     from pathlib import Path
     Path(path).write_text("".join(json.dumps(r, ensure_ascii=False) + "\n" for r in rows), encoding="utf-8")
+
+
+RECORDED = ("RECORDED THROUGH EXCHANGE, model played by an external coding agent (a helper session "
+            "answering the request files; not a named vendor model). {detail}")
+
+
+def label_recorded(transcript, out, *, prompt: str, detail: str = "", keep_requests: bool = False) -> int:
+    """Turn a run's transcript recorded through ``exchange:`` into a labelled tape.
+
+    The first record gets the origin note and the prompt; request bodies are dropped unless
+    ``keep_requests`` (replay matches on role and step; the request digest stays).
+
+    Returns:
+        The number of calls on the tape.
+    """
+    import json
+    from pathlib import Path
+    rows = [json.loads(x) for x in Path(transcript).read_text(encoding="utf-8").splitlines() if x.strip()]
+    rows = [r for r in rows if "reply" in r]
+    for r in rows:
+        r["model"] = "exchange (external coding agent)"
+        if not keep_requests:
+            r["request"] = {"sha256": (r.get("request") or {}).get("sha256", "")}
+    if rows:
+        first = rows[0]
+        rows[0] = {"v": first.get("v", 1), "role": first["role"], "step": first["step"],
+                   "model": first["model"], "note": RECORDED.format(detail=detail).strip(),
+                   "prompt": prompt, **{k: v for k, v in first.items()
+                                        if k not in ("v", "role", "step", "model")}}
+    write_tape(out, rows)
+    return len(rows)
