@@ -30,7 +30,7 @@ class CommittedPart:
     """One committed part as it went into the program (blocks after the splice)."""
 
     name: str
-    text: str  # the part's params, helpers, body, frames and mates as spliced
+    text: str  # the part's five blocks as spliced (fenced, as in a reply)
     warning: str = ""  # committed after its attempts ran out: what was still wrong
 
 
@@ -42,7 +42,7 @@ def program_log(header: str, committed: Sequence[CommittedPart]) -> str:
         out.append(f"### committed part {k}: {c.name}")
         if c.warning:
             out.append(f"(committed with a warning: {c.warning})")
-        out += ["```python", c.text.rstrip(), "```"]
+        out.append(c.text.rstrip())  # already its five fenced blocks
     return "\n".join(out)
 
 
