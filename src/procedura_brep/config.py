@@ -115,3 +115,18 @@ class SandboxLimits:
 
 TOL = Tolerances()
 SANDBOX = SandboxLimits()
+
+
+@dataclass(frozen=True)
+class TerminalLimits:
+    """What the CLI prints of text that came from a program or a model (see ``text.py``).
+
+    Attributes:
+        message_chars: a message longer than this is cut on the terminal (the full text stays
+            in report.json), with a note of how many characters were left out.
+    """
+
+    message_chars: int = 2000
+
+
+TERMINAL = TerminalLimits()
