@@ -99,11 +99,11 @@ def main_callback(verbose: Annotated[bool, typer.Option("--verbose", "-v", help=
 def _read(program: Path) -> str:
     """The program text, or an :class:`InputError` that names the file and what is wrong."""
     from .errors import InputError
-    if not program.exists():
-        raise InputError(f"program {program} does not exist")
-    if not program.is_file():
-        raise InputError(f"program {program} is not a file")
     try:
+        if not program.exists():
+            raise InputError(f"program {program} does not exist")
+        if not program.is_file():
+            raise InputError(f"program {program} is not a file")
         raw = program.read_bytes()
     except OSError as exc:
         raise InputError(f"cannot read input {program}: {(exc.strerror or str(exc)).lower()}") from None
@@ -390,7 +390,7 @@ def render(
     if mode not in MODES:  # refused before the compile
         raise EditError(f"unknown render mode {mode!r}; use one of: {', '.join(MODES)}")
     if not SIZE_RANGE[0] <= size <= SIZE_RANGE[1]:
-        raise RangeError("--size", size, *SIZE_RANGE, unit="px")
+        raise EditError(str(RangeError("--size", size, *SIZE_RANGE, unit="px")))
     try:
         parse_views(views)
     except ValueError as exc:

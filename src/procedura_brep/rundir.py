@@ -45,11 +45,11 @@ STAGING_PREFIX = ".staging-"
 
 def output_reason(exc: OSError, path: Path) -> str:
     """Why ``path`` cannot be written, in words (no errno numbers)."""
-    if isinstance(exc, FileExistsError) or (path.exists() and not path.is_dir()):
+    if isinstance(exc, FileExistsError) or (_exists(path) and not path.is_dir()):
         return "it exists and is not a directory"
     if isinstance(exc, NotADirectoryError):
         for parent in path.parents:
-            if parent.exists():
+            if _exists(parent):
                 if not parent.is_dir():
                     return f"{parent} is a file, not a directory"
                 break
@@ -63,11 +63,18 @@ def output_reason(exc: OSError, path: Path) -> str:
     return (exc.strerror or str(exc)).lower()
 
 
+def _exists(path: Path) -> bool:
+    try:
+        return path.exists()
+    except OSError:  # EACCES on a parent: it cannot be used either way
+        return False
+
+
 def ensure_dir(path: Path) -> Path:
     """Create ``path`` (and parents) as a writable directory, or raise :class:`OutputError`."""
-    if path.exists() and not path.is_dir():
-        raise OutputError(path, "it exists and is not a directory")
     try:
+        if path.exists() and not path.is_dir():
+            raise OutputError(path, "it exists and is not a directory")
         path.mkdir(parents=True, exist_ok=True)
         probe = tempfile.mkstemp(prefix=".probe-", dir=path)
         os.close(probe[0])
