@@ -302,7 +302,9 @@ def edit(
         write_atomic(target, new)
     except OSError as exc:
         raise OutputError(target, output_reason(exc, target)) from None
-    typer.echo(f"set {edits} -> {target}" + (f" (with a problem: {problem})" if problem else ""))
+    from .text import terminal_safe
+    typer.echo(f"set {edits} -> {target}" + (f" (with a problem: {terminal_safe(problem)})"
+                                              if problem else ""))
     raise typer.Exit(EXIT_FAIL if problem else EXIT_OK)
 
 
@@ -469,8 +471,9 @@ def doctor(
     """Check the CAD kernel, renderer, MuJoCo, USD, FreeCAD and the provider."""
     from .doctor import run_checks
     checks = run_checks(model=model, base_url=base_url, ping=ping)
+    from .text import terminal_safe
     for c in checks:
-        typer.echo(c.line())
+        typer.echo(terminal_safe(c.line()))  # a provider's error text is not ours
     missing = [c for c in checks if not c.ok and not c.optional]
     raise typer.Exit(EXIT_FAIL if missing else EXIT_OK)
 
