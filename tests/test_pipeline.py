@@ -110,3 +110,36 @@ def test_keyboard_interrupt_in_process_writes_interrupted(good, monkeypatch):
     rep = _report(good)
     assert rep["status"] == "interrupted" and rep["findings"][-1]["message"].endswith("gates")
     assert set(_files(good)) == set(before)
+
+
+# --- the parent's meshing, exports, gates and battery run in a limited child ---
+
+def _vm_size() -> int:
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmSize:"):
+            return int(line.split()[1]) * 1024
+    raise AssertionError("no VmSize")
+
+
+@pytest.mark.parametrize("plant, kind", [("memory", "parent-memory"), ("time", "parent-timeout")])
+def test_a_blow_up_after_the_compile_is_one_line_and_a_report(tmp_path, worker, monkeypatch,
+                                                              plant, kind):
+    from typer.testing import CliRunner
+
+    from procedura_brep.cli import app
+    from procedura_brep.config import ParentLimits
+    from procedura_brep.export.bundle import FORMATS  # noqa: F401 - loaded before the limit
+    # a plant: the child may map only 64 MiB more than this process has, or run 0.2 s
+    limits = (ParentLimits(address_space_bytes=_vm_size() + 64 * 2**20) if plant == "memory"
+              else ParentLimits(wall_s=0.2))
+    monkeypatch.setattr("procedura_brep.isolate.PARENT", limits)
+    out = tmp_path / "run"
+    res = CliRunner().invoke(app, ["build", str(LAMP), "-o", str(out)])
+    assert res.exit_code == 1, res.output
+    errors = [l for l in res.stderr.splitlines() if l.startswith("error:")]
+    assert len(errors) == 1 and "Traceback" not in res.output, res.output
+    assert ("ran out of memory" in errors[0] or "was killed by" in errors[0]
+            if plant == "memory" else "wall-clock limit (0.2 s" in errors[0]), errors[0]
+    rep = _report(out)
+    assert rep["status"] == "failed" and rep["findings"][-1]["code"] in (kind, "parent-killed")
+    assert sorted(_files(out)) == ["program.py", "report.json"]

@@ -52,6 +52,14 @@ def guarded(fn: Callable[..., Any]) -> Callable[..., Any]:
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
+        from . import interrupt
+        try:
+            return mapped(*args, **kwargs)
+        except BaseException:
+            interrupt.hold()  # Ctrl-C under way: its watcher prints, writes and exits
+            raise
+
+    def mapped(*args: Any, **kwargs: Any) -> Any:
         from .errors import (CompileError, EditError, InputError, OutputError, ProceduraError,
                              ProgramFormatError)
         try:

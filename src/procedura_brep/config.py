@@ -130,3 +130,22 @@ class TerminalLimits:
 
 
 TERMINAL = TerminalLimits()
+
+
+@dataclass(frozen=True)
+class ParentLimits:
+    """Limits of the forked child that meshes, exports, gates and simulates a compiled model
+    (``procedura_brep.isolate``), so a blow-up there is a one-line error with report.json
+    written, never a dead or hung CLI.
+
+    Attributes:
+        address_space_bytes: RLIMIT_AS of the child. It includes what the CLI process has
+            already mapped (about 1.5 GiB of libraries after its imports).
+        wall_s: the child is killed after this many wall-clock seconds.
+    """
+
+    address_space_bytes: int = 12 * 1024**3
+    wall_s: float = 1800.0
+
+
+PARENT = ParentLimits()

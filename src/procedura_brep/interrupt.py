@@ -27,6 +27,7 @@ import os
 import signal
 import sys
 import threading
+import time
 from collections.abc import Callable, Iterator
 
 log = logging.getLogger(__name__)
@@ -93,6 +94,18 @@ def shutdown(signum: int = signal.SIGINT) -> None:
         os.write(2, f"\nerror: {name}\n".encode())
     finally:
         os._exit(EXIT_CODES.get(signum, 130))
+
+
+def stopping() -> bool:
+    """Whether a shutdown is under way (the watcher thread will end the process)."""
+    return _stopping.is_set()
+
+
+def hold() -> None:
+    """Block the calling thread while a shutdown is under way: the main thread must not exit
+    (or print its own error) before the watcher has written the report and ended the process."""
+    while _stopping.is_set():
+        time.sleep(CRITICAL_WAIT_S)
 
 
 @contextlib.contextmanager

@@ -21,25 +21,15 @@ import numpy as np
 
 from . import interrupt
 from .errors import CompileError, OutputError, ProceduraError
-from .paths import program_name
-from .rundir import Staging, output_reason
+from .paths import json_default, program_name, write_atomic
+from .rundir import Staging
 from .program.model import CompiledModel, Finding
 
 log = logging.getLogger(__name__)
 
 
 def dump_json(obj: Any) -> str:
-    return json.dumps(obj, indent=2, sort_keys=False, ensure_ascii=False, default=_json_default) + "\n"
-
-
-def _json_default(o: Any) -> Any:
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    if isinstance(o, tuple):
-        return list(o)
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+    return json.dumps(obj, indent=2, sort_keys=False, ensure_ascii=False, default=json_default) + "\n"
 
 
 def _frame_dict(m: np.ndarray) -> dict[str, Any]:
@@ -209,16 +199,20 @@ class _Run:
         self.stage = "start"
         self._progress = progress
         self._lock = threading.Lock()
-        self._done = False
+        self._done = self._finished = False
 
     def enter(self, stage: str, line: str) -> None:
         self.stage = stage
         if self._progress is not None:
             self._progress(line)
 
-    def _claim(self) -> bool:
+    def _claim(self, *, interrupt_wins: bool = False) -> bool:
+        """Whether the caller finishes the run. The interrupt's watcher may take over a finish
+        the main thread started but could not complete (it waits on the watcher's commit lock)."""
+        if not interrupt_wins and interrupt.stopping():
+            interrupt.hold()  # the watcher writes the interrupted report and ends the process
         with self._lock:
-            if self._done:
+            if self._finished or (self._done and not interrupt_wins):
                 return False
             self._done = True
             return True
@@ -226,6 +220,10 @@ class _Run:
     def succeed(self, status: str) -> None:
         if not self._claim():
             return
+        self._finish_ok(status)
+        self._finished = True
+
+    def _finish_ok(self, status: str) -> None:
         self.result.status = status
         report = _report(self.result, self.timings, self.t0)
         report["complete"] = True
@@ -236,9 +234,14 @@ class _Run:
         self.result.files.update(program=out / "program.py", mates=out / "mates.json",
                                  report=out / "report.json")
 
-    def fail(self, status: str, findings: list[Finding] | None = None) -> None:
-        if not self._claim():
+    def fail(self, status: str, findings: list[Finding] | None = None, *,
+             interrupt_wins: bool = False) -> None:
+        if not self._claim(interrupt_wins=interrupt_wins):
             return
+        self._finish_failed(status, findings)
+        self._finished = True
+
+    def _finish_failed(self, status: str, findings: list[Finding] | None) -> None:
         self.result.status = status
         if findings is not None:
             self.result.findings = [*self.result.findings, *findings]
@@ -251,7 +254,7 @@ class _Run:
 
     def interrupted(self) -> None:
         self.fail("interrupted", [Finding("interrupted", f"the build was interrupted during "
-                                                         f"{self.stage}")])
+                                                         f"{self.stage}")], interrupt_wins=True)
 
 
 def _build_into(run: _Run, source: str, name: str, fmts: tuple[str, ...], *, gates: bool,
@@ -271,16 +274,56 @@ def _build_into(run: _Run, source: str, name: str, fmts: tuple[str, ...], *, gat
     if not model.ok:
         run.fail("failed")
         return
-    from .export.bundle import write_bundle
+    from .isolate import ChildFailure, run_limited
     run.enter("export", f"writing {len(model.parts)} parts as {', '.join(fmts)}")
+
+    def heavy(send: Callable[[dict[str, Any]], None]) -> dict[str, Any]:
+        return after_compile(model, source, staging.dir, fmts, gates=gates, simulate=simulate,
+                             step_schema=step_schema, send=send)
+
+    try:
+        out = run_limited(heavy, stage="export",
+                          on_message=lambda m: run.enter(str(m["stage"]), str(m["line"])))
+    except ChildFailure as exc:
+        if exc.kind != "error":  # out of memory, over time, killed: a finding, not a dead CLI
+            run.fail("failed", [Finding(f"parent-{exc.kind}", str(exc))])
+            return
+        if exc.exc_type == "KeyboardInterrupt":
+            raise KeyboardInterrupt from None
+        if exc.oserror:
+            raise OutputError(result.out_dir, str(exc)) from None
+        if exc.procedura:  # e.g. the mate graph is not a tree
+            run.fail("failed", [Finding(exc.stage, str(exc))])
+            return
+        raise RuntimeError(f"{exc.exc_type} in the {exc.stage} stage: {exc}") from None
+    result.files.update({rel: staging.dir / rel for rel in out["files"]})
+    timings.update(out["timings"])
+    result.report.update(out["report"])
+    keys = Finding.__dataclass_fields__
+    result.findings += [Finding(**{k: v for k, v in f.items() if k in keys}) for f in out["findings"]]
+    run.enter("save", f"saving {result.out_dir}")
+    if not result.report.get("gates", {}).get("passed", True):
+        run.succeed("gates_failed")
+    elif not result.report.get("battery", {}).get("passed", True):
+        run.succeed("battery_failed")
+    else:
+        run.succeed("ok")
+
+
+def after_compile(model: CompiledModel, source: str, root: Path, fmts: tuple[str, ...], *,
+                  gates: bool, simulate: bool, step_schema: str,
+                  send: Callable[[dict[str, Any]], None]) -> dict[str, Any]:
+    """Exports, mates.json, gates and battery into ``root`` (the staging folder): everything
+    that tessellates. Runs in the limited child of :func:`procedura_brep.isolate.run_limited`;
+    returns what the parent needs (JSON-safe)."""
+    from .export.bundle import write_bundle
+    timings: dict[str, float] = {}
+    report: dict[str, Any] = {}
+    findings: list[Finding] = []
     t = time.perf_counter()
     bundle_t: dict[str, float] = {}
-    try:
-        written = write_bundle(model, staging.dir, formats=fmts, timings=bundle_t,
-                               step_schema=step_schema)  # type: ignore[arg-type]
-    except OSError as exc:
-        raise OutputError(result.out_dir, output_reason(exc, staging.dir)) from None
-    result.files.update({rel: path for rel, path in written.items()})
+    written = write_bundle(model, root, formats=fmts, timings=bundle_t,
+                           step_schema=step_schema)  # type: ignore[arg-type]
     timings.update({f"export_{k}_s": v for k, v in bundle_t.items()})
     timings["export_s"] = time.perf_counter() - t
     evidence = None
@@ -289,27 +332,30 @@ def _build_into(run: _Run, source: str, name: str, fmts: tuple[str, ...], *, gat
         from .articulation import mates_evidence
         evidence = mates_evidence(model)
         timings["evidence_s"] = time.perf_counter() - t
-    staging.write("mates.json", dump_json(mates_json(model, evidence)))
+    write_atomic(root / "mates.json", dump_json(mates_json(model, evidence)))
     if gates:
-        run.enter("gates", "running the gates")
+        send({"stage": "gates", "line": "running the gates"})
         t = time.perf_counter()
-        result.report["gates"] = run_gates(model, source)
+        report["gates"] = run_gates(model, source)
         timings["gates_s"] = time.perf_counter() - t
-        result.findings += gate_failures(result.report["gates"])
+        findings += gate_failures(report["gates"])
     if simulate:
-        run.enter("battery", "running the MuJoCo battery")
+        send({"stage": "battery", "line": "running the MuJoCo battery"})
         t = time.perf_counter()
         from .sim import run_battery
-        result.report["battery"] = run_battery(staging.dir, out_dir=staging.dir).as_dict()
+        report["battery"] = run_battery(root, out_dir=root, frames=not _gl_in_use()).as_dict()
         timings["battery_s"] = time.perf_counter() - t
-        result.findings += battery_failures(result.report["battery"])
-    run.enter("save", f"saving {result.out_dir}")
-    if not result.report.get("gates", {}).get("passed", True):
-        run.succeed("gates_failed")
-    elif not result.report.get("battery", {}).get("passed", True):
-        run.succeed("battery_failed")
-    else:
-        run.succeed("ok")
+        findings += battery_failures(report["battery"])
+    return {"files": [*written, "mates.json"], "timings": timings, "report": report,
+            "findings": [f.as_dict() for f in findings]}
+
+
+def _gl_in_use() -> bool:
+    """Whether this process inherited a GL context (its driver threads do not survive a fork,
+    so the child must not draw battery frames with it)."""
+    import sys
+    gl = sys.modules.get("procedura_brep.render.gl")
+    return getattr(gl, "_RENDERER", None) is not None
 
 
 def gate_failures(gates: dict[str, Any]) -> list[Finding]:
