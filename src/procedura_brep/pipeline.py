@@ -343,7 +343,12 @@ def after_compile(model: CompiledModel, source: str, root: Path, fmts: tuple[str
         send({"stage": "battery", "line": "running the MuJoCo battery"})
         t = time.perf_counter()
         from .sim import run_battery
-        report["battery"] = run_battery(root, out_dir=root, frames=not _gl_in_use()).as_dict()
+        frames = not _gl_in_use()
+        report["battery"] = run_battery(root, out_dir=root, frames=frames).as_dict()
+        if not frames:
+            report["battery"].setdefault("notes", []).append(
+                "no failure frames: this process inherited a GL context, which a forked child "
+                "cannot use")
         timings["battery_s"] = time.perf_counter() - t
         findings += battery_failures(report["battery"])
     return {"files": [*written, "mates.json"], "timings": timings, "report": report,
