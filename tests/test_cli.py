@@ -380,3 +380,12 @@ def test_check_tables_escape_markup():
     text = buf.getvalue()
     assert "[red]mate[/red]" in text and "[bold]p" in text and "[blink]c" in text
     assert "[link=https://evil.example]click[/link]" in text and "\x1b" not in text
+
+
+def test_check_verbose_lists_every_compile_error_after_the_first(tmp_path):
+    bad = tmp_path / "bad.py"
+    bad.write_text(TWO_BAD)
+    res = invoke("-v", "check", str(bad))
+    lines = [l for l in res.stderr.splitlines() if l.startswith(("error:", "  also:"))]
+    assert res.exit_code == 2 and len(lines) == 2, res.stderr
+    assert lines[0].startswith("error:") and "(+1 more" in lines[0] and lines[1].startswith("  also: part")

@@ -68,6 +68,10 @@ def guarded(fn: Callable[..., Any]) -> Callable[..., Any]:
             raise
         except (EditError, ProgramFormatError, CompileError, InputError, OutputError) as exc:
             _err(str(exc))
+            errors = [f for f in getattr(exc, "findings", []) if f.severity == "error"]
+            if _State.verbose and len(errors) > 1:
+                from .pipeline import describe
+                _more([describe(f) for f in errors[1:]])
             raise typer.Exit(EXIT_USAGE) from None
         except ProceduraError as exc:
             _err(str(exc))
@@ -331,8 +335,6 @@ def _compile(program: Path, source: str | None = None, progress: Any = None):
         raise CompileError(f"{program} does not compile: {exc}", errs) from None
     if not model.ok:
         errs = [f for f in model.findings if f.severity == "error"]
-        if _State.verbose and len(errs) > 1:
-            _more([describe(f) for f in errs[1:]])
         raise CompileError(f"{program} does not compile: {describe(errs[0])}"
                            + (f" (+{len(errs) - 1} more, -v lists them)" if len(errs) > 1 else ""),
                            errs)
