@@ -128,18 +128,26 @@ def test_a_blow_up_after_the_compile_is_one_line_and_a_report(tmp_path, worker, 
 
     from procedura_brep.cli import app
     from procedura_brep.config import ParentLimits
-    from procedura_brep.export.bundle import FORMATS  # noqa: F401 - loaded before the limit
-    # a plant: the child may map only 64 MiB more than this process has, or run 0.2 s
-    limits = (ParentLimits(address_space_bytes=_vm_size() + 64 * 2**20) if plant == "memory"
-              else ParentLimits(wall_s=0.2))
+    # the plant: gates that want 4 GiB under a limit of 512 MiB more than this process maps,
+    # or a wall-clock limit of 0.2 s
+    if plant == "memory":
+        pipeline.compile_file(LAMP.read_text(), "lamp")  # this process's imports, as in a build
+        limits = ParentLimits(address_space_bytes=_vm_size() + 512 * 2**20)
+
+        def greedy(model, source):
+            return {"hoard": bytearray(4 * 2**30)}
+
+        monkeypatch.setattr(pipeline, "run_gates", greedy)
+    else:
+        limits = ParentLimits(wall_s=0.2)
     monkeypatch.setattr("procedura_brep.isolate.PARENT", limits)
     out = tmp_path / "run"
     res = CliRunner().invoke(app, ["build", str(LAMP), "-o", str(out)])
     assert res.exit_code == 1, res.output
     errors = [l for l in res.stderr.splitlines() if l.startswith("error:")]
     assert len(errors) == 1 and "Traceback" not in res.output, res.output
-    assert ("ran out of memory" in errors[0] or "was killed by" in errors[0]
+    assert ("the gates stage ran out of memory (address-space limit" in errors[0]
             if plant == "memory" else "wall-clock limit (0.2 s" in errors[0]), errors[0]
     rep = _report(out)
-    assert rep["status"] == "failed" and rep["findings"][-1]["code"] in (kind, "parent-killed")
+    assert rep["status"] == "failed" and rep["findings"][-1]["code"] == kind
     assert sorted(_files(out)) == ["program.py", "report.json"]
