@@ -99,7 +99,8 @@ def generate(prompt: str, out_dir: Path, *, model: str, base_url: str | None = N
                 source = extract_program(reply.text)
             except MalformedReplyError as exc:
                 result.message = str(exc)
-                note(f"attempt {attempt + 1}/{attempts}: {exc}; feedback to the model: {exc}")
+                note(f"attempt {attempt + 1}/{attempts}: {exc}"
+                     + ("; sent back to the model as feedback" if attempt + 1 < attempts else ""))
                 messages.append(Message.user(template("feedback").replace("{findings}", f"- {exc}")))
                 continue
             write_atomic(out_dir / "history" / f"{attempt + 1:03d}.py", source)
