@@ -62,13 +62,15 @@ def test_report_json_per_part_and_mate(built):
 def test_build_missing_file_is_one_line(tmp_path):
     res = invoke("build", str(tmp_path / "nope.py"), "-o", str(tmp_path / "o"))
     assert res.exit_code == 2 and res.output.count("\n") == 1 and "does not exist" in res.output
+    assert str(tmp_path / "nope.py") in res.output
 
 
 def test_build_failing_part_reports_and_writes_report(tmp_path):
     bad = tmp_path / "bad.py"
     bad.write_text(LAMP.read_text().replace("return Box(90, 14, 10", "return Box(90, 14, -10"))
     res = invoke("build", str(bad), "-o", str(tmp_path / "o"), "--formats", "step")
-    assert res.exit_code != 0 and "part arm" in res.output and res.output.count("\n") == 1
+    assert res.exit_code != 0 and "part arm" in res.stderr and res.stdout == ""
+    assert len([l for l in res.stderr.splitlines() if l.startswith("error:")]) == 1
     rep = json.loads((tmp_path / "o" / "report.json").read_text())
     assert rep["status"] == "failed" and rep["findings"][0]["part"] == "arm"
 
@@ -109,7 +111,7 @@ def test_edit_in_place_with_build(tmp_path):
 def test_check_json_and_exit_codes(tmp_path):
     res = invoke("check", str(LAMP), "--json")
     assert res.exit_code == 0, res.output
-    data = json.loads(res.output)
+    data = json.loads(res.stdout)
     assert data["passed"] and data["n_vis"] == 0
     peg = data["mates"]["post_foot"]
     assert peg["area_mm2"] >= peg["area_limit_mm2"] and peg["penetration_mm"] <= peg["penetration_limit_mm"]
@@ -145,3 +147,245 @@ def test_export_ap242(tmp_path):
     res = invoke("export", str(LAMP), "-o", str(tmp_path), "--formats", "step", "--step-schema", "AP242")
     assert res.exit_code == 0, res.output
     assert "AP242_MANAGED_MODEL_BASED_3D_ENGINEERING" in (tmp_path / "model.step").read_text()
+
+
+# --- user mistakes are exit 2 with a message that names the path (never "internal error") ---
+
+def _one_error_line(res, code: int = 2) -> str:
+    assert res.exit_code == code, res.output
+    lines = [l for l in res.stderr.splitlines() if l.startswith("error:")]
+    assert len(lines) == 1 and "internal error" not in lines[0], res.stderr
+    return lines[0]
+
+
+def test_output_that_is_a_file_is_exit_2(tmp_path):
+    f = tmp_path / "taken"
+    f.write_text("x")
+    line = _one_error_line(invoke("build", str(LAMP), "-o", str(f)))
+    assert line == f"error: cannot write output {f}: it exists and is not a directory"
+    line = _one_error_line(invoke("build", str(LAMP), "-o", str(f / "sub")))
+    assert line == f"error: cannot write output {f / 'sub'}: {f} is a file, not a directory"
+    for cmd in (("export", str(LAMP)), ("render", str(LAMP)), ("generate", "a lamp", "--model",
+                                                                "scripted:")):
+        line = _one_error_line(invoke(*cmd, "-o", str(f)))
+        assert line.startswith(f"error: cannot write output {f}: "), line
+    assert f.read_text() == "x"
+
+
+def test_output_refused_by_the_kernel_is_exit_2():
+    # as root, mkdir under /sys is refused (EPERM) whatever the mode bits say: a real refusal
+    line = _one_error_line(invoke("build", str(LAMP), "-o", "/sys/procedura-out"))
+    assert line == "error: cannot write output /sys/procedura-out: permission denied"
+
+
+def _as_nobody(*args: str) -> tuple[int, str]:
+    """Run the CLI in a forked child that has switched to ``nobody`` (exit code, stderr).
+
+    The venv's interpreter lives under /root, which nobody may not execute, so the child is a
+    fork of this process, with everything the command loads loaded before the switch."""
+    import os
+    import pickle
+    import pwd
+    runner.invoke(app, ["build", str(LAMP), "-o", "/sys/procedura-warm"])  # load what it needs
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:
+        code = 99
+        try:
+            os.close(r)
+            nobody = pwd.getpwnam("nobody")
+            os.setgroups([])
+            os.setgid(nobody.pw_gid)
+            os.setuid(nobody.pw_uid)
+            res = runner.invoke(app, list(args))
+            os.write(w, pickle.dumps((res.exit_code, res.stderr)))
+            code = 0
+        finally:
+            os._exit(code)
+    os.close(w)
+    with os.fdopen(r, "rb") as fh:
+        data = fh.read()
+    os.waitpid(pid, 0)
+    return pickle.loads(data)
+
+
+def test_permission_denied_as_an_ordinary_user(tmp_path):
+    """Tests run as root, which no mode bit stops; so the CLI runs as ``nobody`` (a real EACCES
+    from the kernel) on a root-owned output folder and a root-only input file."""
+    import os
+    locked = tmp_path / "locked"
+    locked.mkdir(mode=0o755)
+    os.chmod(tmp_path, 0o755)
+    secret = tmp_path / "secret.py"
+    secret.write_text(LAMP.read_text())
+    secret.chmod(0o600)
+    code, err = _as_nobody("build", str(LAMP), "-o", str(locked / "run"))
+    assert code == 2, err
+    assert err.strip() == f"error: cannot write output {locked / 'run'}: permission denied"
+    code, err = _as_nobody("build", str(secret), "-o", str(locked / "run"))
+    assert code == 2 and err.strip() == f"error: cannot read input {secret}: permission denied"
+    assert not (locked / "run").exists()
+
+
+def test_binary_input_names_the_file(tmp_path):
+    png = tmp_path / "picture.py"
+    png.write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00")
+    line = _one_error_line(invoke("build", str(png), "-o", str(tmp_path / "o")))
+    assert str(png) in line and "not UTF-8 text" in line and "0x89" in line
+    for cmd in ("check", "simulate"):
+        assert str(png) in _one_error_line(invoke(cmd, str(png)))
+
+
+def test_simulate_a_directory_without_a_program_is_exit_2(tmp_path):
+    line = _one_error_line(invoke("simulate", str(tmp_path)))
+    assert f"{tmp_path} has no program.py" in line
+
+
+def test_readme_documents_exit_codes_3_and_130():
+    readme = (Path(__file__).parents[1] / "README.md").read_text()
+    table = readme[readme.index("## Commands"):readme.index("## Outputs")]
+    assert "3 internal error" in table and "130 interrupted" in table
+    assert "procedura-brep simulate" in table and "2 no program" in table
+
+
+# --- refused before the compile; lines and all findings shown ---
+
+@pytest.fixture()
+def no_compile(monkeypatch):
+    def fail(*a, **k):
+        raise AssertionError("compiled although the arguments were invalid")
+    monkeypatch.setattr("procedura_brep.pipeline.compile_file", fail)
+
+
+def test_render_bad_view_or_mode_refused_before_compile(tmp_path, no_compile):
+    line = _one_error_line(invoke("render", str(LAMP), "-o", str(tmp_path), "--views", "bogus"))
+    assert "'bogus'" in line and "iso_ne" in line and "front" in line
+    line = _one_error_line(invoke("render", str(LAMP), "-o", str(tmp_path), "--mode", "wireframe"))
+    assert "'wireframe'" in line and "parts, clay, pbr" in line
+    line = _one_error_line(invoke("render", str(LAMP), "-o", str(tmp_path), "--size", "9"))
+    assert "9" in line and "[32, 4096]" in line
+
+
+TWO_BAD = LAMP.read_text().replace("return Box(90, 14, 10", "return Box(90, 14, -10").replace(
+    "p = Cylinder(post_d / 2, post_h", "p = Cylinder(-post_d / 2, post_h")
+
+
+ARM_BODY = "return Box(90, 14, 10, align=(Align.MIN, Align.CENTER, Align.CENTER))"
+
+
+def _line_of(text: str, needle: str) -> int:
+    return next(i for i, l in enumerate(text.splitlines(), 1) if needle in l)
+
+
+def test_part_exception_shows_its_program_line(tmp_path):
+    bad = tmp_path / "bad.py"
+    bad.write_text(LAMP.read_text().replace(ARM_BODY, "return [][3]"))
+    res = invoke("build", str(bad), "-o", str(tmp_path / "o"), "--formats", "step")
+    line = _one_error_line(res, code=1)
+    assert "part arm" in line and "IndexError" in line
+    assert f"line {_line_of(bad.read_text(), 'return [][3]')}" in line
+
+
+def test_more_errors_are_listed_with_verbose_and_in_json(tmp_path):
+    bad = tmp_path / "bad.py"
+    bad.write_text(TWO_BAD)
+    res = invoke("build", str(bad), "-o", str(tmp_path / "o"), "--formats", "step")
+    assert "(+1 more" in _one_error_line(res, code=1) and "also:" not in res.stderr
+    res = invoke("-v", "build", str(bad), "-o", str(tmp_path / "o"), "--formats", "step")
+    also = [l for l in res.stderr.splitlines() if l.startswith("  also:")]
+    assert len(also) == 1 and ("part arm" in also[0] or "part post" in also[0]), res.stderr
+    res = invoke("check", str(bad), "--json")
+    assert res.exit_code == 2
+    data = json.loads(res.stdout)
+    assert data["passed"] is False and data["compiled"] is False
+    assert {f.get("part") for f in data["findings"]} >= {"arm", "post"}
+
+
+def test_check_json_on_a_compile_error_is_json(tmp_path):
+    bad = tmp_path / "bad.py"
+    bad.write_text(LAMP.read_text().replace("# === assembly ===", "# === assembly ===\n("))
+    res = invoke("check", str(bad), "--json")
+    assert res.exit_code == 2, res.output
+    data = json.loads(res.stdout)
+    assert data["passed"] is False and data["compiled"] is False and data["error"]
+
+
+def test_build_simulate_names_the_failing_check(tmp_path):
+    wide = tmp_path / "wide.py"
+    wide.write_text(LAMP.read_text().replace("limits=(-45, 45)", "limits=(-100, 100)"))
+    out = tmp_path / "o"
+    res = invoke("build", str(wide), "-o", str(out), "--simulate", "--formats", "urdf,usd,mjcf")
+    line = _one_error_line(res, code=1)
+    assert "battery B2" in line and "gates_failed" not in line, line
+    rep = json.loads((out / "report.json").read_text())
+    assert rep["status"] == "battery_failed"
+    assert any(f["code"] == "battery-B2" for f in rep["findings"])
+
+
+# --- progress on stderr, stdout clean ---
+
+def test_progress_goes_to_stderr_and_quiet_silences_it(tmp_path):
+    res = invoke("build", str(LAMP), "-o", str(tmp_path / "o"), "--formats", "step")
+    assert res.exit_code == 0
+    assert res.stdout.startswith("built 3 parts") and res.stdout.count("\n") == 1
+    for stage in ("compiling lamp", "writing 3 parts as step", "running the gates", "saving"):
+        assert stage in res.stderr, res.stderr
+    res = invoke("build", str(LAMP), "-o", str(tmp_path / "o"), "--formats", "step", "-q")
+    assert res.exit_code == 0 and res.stderr == ""
+    res = invoke("check", str(LAMP), "--json")
+    assert json.loads(res.stdout)["passed"] and "running the gates" in res.stderr
+
+
+def test_generate_replay_says_what_each_attempts_feedback_was(tmp_path):
+    tape = Path(__file__).parents[1] / "examples" / "tapes" / "lamp_oneshot.jsonl"
+    res = invoke("generate", "a desk lamp with a swinging arm", "-o", str(tmp_path / "lamp"),
+                 "--model", f"replay:{tape}", "--formats", "step")
+    assert res.exit_code == 0, res.output
+    err = res.stderr
+    assert "attempt 1/3: asking replay:" in err and "attempt 2/3: asking replay:" in err
+    assert "attempt 1/3: build failed: mate post_foot: nominal must be a param name" in err
+    assert "feedback to the model: 1 finding(s): mate post_foot" in err
+    assert "attempt 2/3: built" in err
+
+
+# --- what a program says never reaches the terminal raw ---
+
+def test_escape_sequences_in_an_exception_are_stripped(tmp_path):
+    bad = tmp_path / "bad.py"
+    evil = (r'raise ValueError("x\x1b[2K\x1b[1Gbuilt 3 parts, 2 mates\x1b]52;c;ZXZpbA==\x07'
+            r'\x1b]0;t\x07\x9b1A" + "A" * 50000)')
+    bad.write_text(LAMP.read_text().replace(ARM_BODY, evil))
+    assert evil in bad.read_text()
+    res = invoke("build", str(bad), "-o", str(tmp_path / "o"), "--formats", "step")
+    line = _one_error_line(res, code=1)
+    assert "built 3 parts" in line  # the text is shown, the escape sequences are not
+    assert not any(c in res.output for c in "\x1b\r\x07\x9b")
+    assert "ZXZpbA" not in line and "more characters]" in line
+    assert len(res.output) < 5000
+
+
+def test_check_tables_escape_markup():
+    from procedura_brep.console import print_check
+    import contextlib
+    import io
+    data = {"model": "[red]m", "passed": False, "triangles_per_part": {"[bold]p": 12},
+            "findings": [{"part": "[bold]p", "severity": "error", "code": "[blink]c",
+                          "message": "[link=https://evil.example]click[/link]\x1b]0;t\x07"}],
+            "mates": {"[red]mate[/red]": {"passed": True, "area_mm2": 1.0, "area_limit_mm2": 0.5,
+                                          "penetration_mm": 0.0, "penetration_limit_mm": 0.01}},
+            "connectivity": {"n_vis": 0}, "metrics": {}}
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        print_check(data)
+    text = buf.getvalue()
+    assert "[red]mate[/red]" in text and "[bold]p" in text and "[blink]c" in text
+    assert "[link=https://evil.example]click[/link]" in text and "\x1b" not in text
+
+
+def test_check_verbose_lists_every_compile_error_after_the_first(tmp_path):
+    bad = tmp_path / "bad.py"
+    bad.write_text(TWO_BAD)
+    res = invoke("-v", "check", str(bad))
+    lines = [l for l in res.stderr.splitlines() if l.startswith(("error:", "  also:"))]
+    assert res.exit_code == 2 and len(lines) == 2, res.stderr
+    assert lines[0].startswith("error:") and "(+1 more" in lines[0] and lines[1].startswith("  also: part")

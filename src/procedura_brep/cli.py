@@ -1,8 +1,10 @@
 """The ``procedura-brep`` command line: argument parsing and exit codes only.
 
 Exit codes: 0 success; 1 the program built but a gate or check failed (or the build failed on
-its own findings); 2 usage errors, unreadable input, or a program that does not compile.
-Errors are one line on stderr, never a traceback (``-v`` logs details).
+its own findings); 2 usage errors, unreadable input, unwritable output, or a program that does
+not compile; 3 an internal error (our bug: please report it, ``-v`` shows the traceback); 130
+interrupted (Ctrl-C; 143 for SIGTERM). Errors are one line on stderr, never a traceback.
+Progress goes to stderr too (``-q`` silences it), so stdout stays clean for ``--json``.
 """
 
 from __future__ import annotations
@@ -15,12 +17,21 @@ from typing import Annotated, Any, Callable, Optional
 
 import typer
 
+from .console import err as _err
+from .console import more as _more
+
 app = typer.Typer(
     name="procedura-brep", add_completion=False, no_args_is_help=True,
     pretty_exceptions_show_locals=False,
     help="Text prompt -> editable CAD assembly: build123d parts joined by typed, checked mates.")
 
-EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
+EXIT_OK, EXIT_FAIL, EXIT_USAGE, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+
+
+class _State:
+    """Global options of this invocation."""
+
+    verbose = False
 
 
 class StepSchema(str, Enum):
@@ -33,10 +44,7 @@ class StepSchema(str, Enum):
 FormatsOption = Annotated[Optional[str], typer.Option(
     help="Comma list of step,obj,glb,usd,urdf,mjcf (default: all).")]
 StepSchemaOption = Annotated[StepSchema, typer.Option("--step-schema", help="STEP application protocol.")]
-
-
-def _err(msg: str) -> None:
-    typer.echo(f"error: {msg}", err=True)
+QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="No progress lines on stderr.")]
 
 
 def guarded(fn: Callable[..., Any]) -> Callable[..., Any]:
@@ -44,43 +52,97 @@ def guarded(fn: Callable[..., Any]) -> Callable[..., Any]:
 
     @functools.wraps(fn)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
-        from .errors import CompileError, EditError, ProceduraError, ProgramFormatError
+        from . import interrupt
+        try:
+            return mapped(*args, **kwargs)
+        except BaseException:
+            interrupt.hold()  # Ctrl-C under way: its watcher prints, writes and exits
+            raise
+
+    def mapped(*args: Any, **kwargs: Any) -> Any:
+        from .errors import (CompileError, EditError, InputError, OutputError, ProceduraError,
+                             ProgramFormatError)
         try:
             return fn(*args, **kwargs)
         except typer.Exit:
             raise
-        except (EditError, ProgramFormatError, CompileError) as exc:
+        except (EditError, ProgramFormatError, CompileError, InputError, OutputError) as exc:
             _err(str(exc))
+            errors = [f for f in getattr(exc, "findings", []) if f.severity == "error"]
+            if _State.verbose and len(errors) > 1:
+                from .pipeline import describe
+                _more([describe(f) for f in errors[1:]])
             raise typer.Exit(EXIT_USAGE) from None
         except ProceduraError as exc:
             _err(str(exc))
             raise typer.Exit(EXIT_FAIL) from None
-        except (FileNotFoundError, IsADirectoryError, PermissionError, UnicodeDecodeError) as exc:
-            _err(f"cannot read input: {exc}")
+        except OSError as exc:  # a path we did not check first: name it, do not guess a side
+            what = f" {exc.filename}" if exc.filename else ""
+            _err(f"cannot access{what}: {(exc.strerror or str(exc)).lower()}")
             raise typer.Exit(EXIT_USAGE) from None
         except KeyboardInterrupt:
             _err("interrupted")
-            raise typer.Exit(130) from None
+            raise typer.Exit(EXIT_INTERRUPTED) from None
         except Exception as exc:  # noqa: BLE001 - never a traceback for users
             logging.getLogger(__name__).debug("internal error", exc_info=True)
             _err(f"internal error: {type(exc).__name__}: {exc} (run with -v for details)")
-            raise typer.Exit(3) from None
+            raise typer.Exit(EXIT_INTERNAL) from None
 
     return wrapper
+
+
+class _SafeFormatter(logging.Formatter):
+    """Log records may quote a program or a model: no escape sequences on the terminal."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        from .text import terminal_safe
+        return terminal_safe(super().format(record), one_line=False)
 
 
 @app.callback()
 def main_callback(verbose: Annotated[bool, typer.Option("--verbose", "-v", help="Log details.")] = False
                   ) -> None:
-    logging.basicConfig(level=logging.DEBUG if verbose else logging.WARNING,
-                        format="%(levelname)s %(name)s: %(message)s")
+    _State.verbose = verbose
+    handler = logging.StreamHandler()
+    handler.setFormatter(_SafeFormatter("%(levelname)s %(name)s: %(message)s"))
+    logging.basicConfig(level=logging.DEBUG if verbose else logging.WARNING, handlers=[handler])
 
 
 def _read(program: Path) -> str:
-    if not program.is_file():
-        from .errors import EditError
-        raise EditError(f"program {program} does not exist or is not a file")
-    return program.read_text(encoding="utf-8")
+    """The program text, or an :class:`InputError` that names the file and what is wrong."""
+    from .errors import InputError
+    try:
+        if not program.exists():
+            raise InputError(f"program {program} does not exist")
+        if not program.is_file():
+            raise InputError(f"program {program} is not a file")
+        raw = program.read_bytes()
+    except OSError as exc:
+        raise InputError(f"cannot read input {program}: {(exc.strerror or str(exc)).lower()}") from None
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise InputError(f"program {program} is not UTF-8 text (byte 0x{raw[exc.start]:02x} at "
+                         f"offset {exc.start}); pass a .py file in the program format") from None
+
+
+def _progress(quiet: bool):
+    from .progress import Progress
+    return Progress(quiet=quiet)
+
+
+def _output_dir(path: Path) -> Path:
+    """Fail early (before any compile) when ``path`` cannot be a writable directory."""
+    from .rundir import ensure_dir
+    return ensure_dir(path)
+
+
+def _report_errors(reason: str, errors: list[Any]) -> None:
+    """The first error on one line; with ``-v`` every further one too."""
+    _err(reason)
+    if _State.verbose and len(errors) > 1:
+        from .pipeline import describe
+        _more([describe(f) for f in errors[1:]])
 
 
 def _formats(text: str | None) -> tuple[str, ...]:
@@ -94,18 +156,21 @@ def _formats(text: str | None) -> tuple[str, ...]:
 
 
 def _do_build(program: Path, out: Path, formats: tuple[str, ...], source: str | None = None,
-              gates: bool = True, simulate: bool = False, step_schema: str = "AP214") -> int:
+              gates: bool = True, simulate: bool = False, step_schema: str = "AP214",
+              quiet: bool = False) -> int:
     from .pipeline import build
-    res = build(program, out, formats=formats, source=source, gates=gates, simulate=simulate,
-                step_schema=step_schema)
+    with _progress(quiet) as progress:
+        res = build(program, out, formats=formats, source=source, gates=gates, simulate=simulate,
+                    step_schema=step_schema, progress=progress)
     if res.ok:
         n = len(res.model.parts) if res.model else 0
         t = res.report.get("timings", {}).get("total_s", 0.0)
         typer.echo(f"built {n} parts, {len(res.model.mates) if res.model else 0} mates -> {out} "
                    f"({t:.1f} s)")
         return EXIT_OK
-    _err(f"build failed: {res.reason}")
-    if res.status == "gates_failed":
+    kept = " (the previous build in the directory is kept)" if res.report.get("kept_previous") else ""
+    _report_errors(f"build failed: {res.reason}{kept}", res.errors)
+    if res.status in ("gates_failed", "battery_failed"):
         return EXIT_FAIL
     return EXIT_USAGE if res.model is None or not res.model.parts else EXIT_FAIL
 
@@ -120,11 +185,14 @@ def build(
     simulate: Annotated[bool, typer.Option("--simulate", help="Also run the MuJoCo battery and "
                                                               "record it in report.json.")] = False,
     step_schema: StepSchemaOption = StepSchema.AP214,
+    quiet: QuietOption = False,
 ) -> None:
     """Compile PROGRAM in the sandbox, place its parts and write the run directory."""
     source = _read(program)
-    raise typer.Exit(_do_build(program, out, _formats(formats), source=source, gates=not no_gates,
-                               simulate=simulate, step_schema=step_schema.value))
+    fmts = _formats(formats)
+    _output_dir(out)
+    raise typer.Exit(_do_build(program, out, fmts, source=source, gates=not no_gates,
+                               simulate=simulate, step_schema=step_schema.value, quiet=quiet))
 
 
 @app.command()
@@ -134,11 +202,21 @@ def export(
     out: Annotated[Path, typer.Option("-o", "--out", help="Directory for the exports.")],
     formats: FormatsOption = None,
     step_schema: StepSchemaOption = StepSchema.AP214,
+    quiet: QuietOption = False,
 ) -> None:
     """Write the export bundle of PROGRAM (no gates, no report)."""
+    from .errors import OutputError
     from .export.bundle import write_bundle
-    model = _compile(program)
-    files = write_bundle(model, out, formats=_formats(formats), step_schema=step_schema.value)
+    from .rundir import output_reason
+    fmts = _formats(formats)
+    _output_dir(out)
+    with _progress(quiet) as progress:
+        model = _compile(program, progress=progress)
+        progress(f"writing {len(model.parts)} parts as {', '.join(fmts)}")
+        try:
+            files = write_bundle(model, out, formats=fmts, step_schema=step_schema.value)
+        except OSError as exc:
+            raise OutputError(out, output_reason(exc, out)) from None
     typer.echo(f"wrote {len(files)} files -> {out}")
     for rel in sorted(files):
         typer.echo(f"  {rel}")
@@ -152,49 +230,32 @@ def simulate(
     json_: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
     out: Annotated[Optional[Path], typer.Option("-o", "--out", help="Where a program's bundle and "
                                                                     "failure frames go.")] = None,
+    quiet: QuietOption = False,
 ) -> None:
-    """Run the MuJoCo battery B0-B7; exit 1 when any check fails."""
+    """Run the MuJoCo battery B0-B7; exit 1 when any check fails, 2 when TARGET is unusable."""
     import json
 
+    from .errors import InputError
     from .sim import run_battery
     if not target.exists():
-        from .errors import EditError
-        raise EditError(f"{target} does not exist; pass a run directory or a program file")
+        raise InputError(f"{target} does not exist; pass a run directory or a program file")
     if target.is_dir() and not (target / "program.py").is_file():
-        from .errors import EditError
-        raise EditError(f"{target} has no program.py; build it first or pass a program file")
-    report = run_battery(target, out_dir=out)
+        raise InputError(f"{target} has no program.py; build it first "
+                         f"(procedura-brep build PROGRAM -o {target}) or pass a program file")
+    if target.is_file():
+        _read(target)
+    if out is not None:
+        _output_dir(out)
+    with _progress(quiet) as progress:
+        progress("running the MuJoCo battery")
+        report = run_battery(target, out_dir=out)
     data = report.as_dict()
     if json_:
         typer.echo(json.dumps(data, indent=2, default=str))
     else:
-        _print_battery(data)
+        from .console import print_battery
+        print_battery(data)
     raise typer.Exit(EXIT_OK if report.passed else EXIT_FAIL)
-
-
-def _print_battery(data: dict[str, Any]) -> None:
-    from rich.console import Console
-    from rich.table import Table
-    t = Table(title="MuJoCo battery")
-    for col in ("check", "name", "verdict", "measured", "limits", "message"):
-        t.add_column(col, overflow="fold")
-    for c in data["checks"]:
-        verdict = "[yellow]skip[/]" if c.get("skipped") else ("[green]pass[/]" if c["passed"] else "[red]FAIL[/]")
-        meas = ", ".join(f"{k}={_short(v)}" for k, v in (c.get("measured") or {}).items())
-        lim = ", ".join(f"{k}={_short(v)}" for k, v in (c.get("limits") or {}).items())
-        t.add_row(c["id"], c.get("name", ""), verdict, meas, lim, c.get("message", ""))
-    con = Console()
-    con.print(t)
-    for n in data.get("notes", []):
-        con.print(f"note: {n}")
-    con.print("[green]all checks pass[/]" if data["passed"] else "[red]a check failed[/]")
-
-
-def _short(v: Any) -> str:
-    if isinstance(v, float):
-        return f"{v:.4g}"
-    text = str(v)
-    return text if len(text) < 60 else text[:57] + "..."
 
 
 @app.command()
@@ -209,50 +270,74 @@ def edit(
     force: Annotated[bool, typer.Option("--force", help="Write the edit even if it breaks a mate "
                                                         "or a gate.")] = False,
     no_check: Annotated[bool, typer.Option("--no-check", help="Do not compile the edited program.")] = False,
+    quiet: QuietOption = False,
 ) -> None:
     """Change named params (only their lines; comments and formatting kept).
 
     The edited program is compiled and gated first; an edit that breaks a mate or a gate is
     reported and not written (unless --force).
     """
+    from .errors import OutputError
     from .pipeline import build as run_build
+    from .pipeline import compile_file, describe
     from .paths import program_name, write_atomic
-    from .pipeline import compile_file
     from .program.edit import parse_assignment, set_params
+    from .rundir import output_reason
     source = _read(program)
     values = dict(parse_assignment(s) for s in set_)
     new = set_params(source, values)
     target = output or program
-    problem = None
+    if target.is_dir():
+        raise OutputError(target, "it is a directory; name the program file to write")
     if build_dir is not None:
-        res = run_build(target, build_dir, source=new, name=program_name(program))
-        problem = None if res.ok else res.reason
-    elif not no_check:
-        from .gates import check_model
-        model = compile_file(new, program_name(program))
-        errs = [f for f in model.findings if f.severity == "error"]
-        if not errs:
-            errs = [f for f in check_model(model, new).findings if f.severity == "error"]
-        problem = errs[0].message if errs else None
+        _output_dir(build_dir)
+    problem = None
+    with _progress(quiet) as progress:
+        if build_dir is not None:
+            res = run_build(target, build_dir, source=new, name=program_name(program),
+                            progress=progress)
+            problem = None if res.ok else res.reason
+        elif not no_check:
+            from .gates import check_model
+            progress(f"compiling {program_name(program)}")
+            model = compile_file(new, program_name(program))
+            errs = [f for f in model.findings if f.severity == "error"]
+            if not errs:
+                progress("running the gates")
+                errs = [f for f in check_model(model, new).findings if f.severity == "error"]
+            problem = describe(errs[0]) if errs else None
     edits = ", ".join(f"{k}={v}" for k, v in values.items())
     if problem and not force:
         _err(f"edit {edits} rejected, {target} unchanged: {problem} (--force writes it anyway)")
         raise typer.Exit(EXIT_FAIL)
-    write_atomic(target, new)
-    typer.echo(f"set {edits} -> {target}" + (f" (with a problem: {problem})" if problem else ""))
+    try:
+        write_atomic(target, new)
+    except OSError as exc:
+        raise OutputError(target, output_reason(exc, target)) from None
+    from .text import terminal_safe
+    typer.echo(f"set {edits} -> {target}" + (f" (with a problem: {terminal_safe(problem)})"
+                                              if problem else ""))
     raise typer.Exit(EXIT_FAIL if problem else EXIT_OK)
 
 
-def _compile(program: Path, source: str | None = None):
+def _compile(program: Path, source: str | None = None, progress: Any = None):
     """Compile PROGRAM in the sandbox; a program that fails is a usage error (exit 2)."""
     from .errors import CompileError
     from .paths import program_name
-    from .pipeline import compile_file
-    model = compile_file(_read(program) if source is None else source, program_name(program))
+    from .pipeline import compile_file, describe
+    text = _read(program) if source is None else source
+    if progress is not None:
+        progress(f"compiling {program_name(program)}")
+    try:
+        model = compile_file(text, program_name(program))
+    except CompileError as exc:
+        errs = exc.findings or []
+        raise CompileError(f"{program} does not compile: {exc}", errs) from None
     if not model.ok:
         errs = [f for f in model.findings if f.severity == "error"]
-        raise CompileError(f"{program} does not compile: {errs[0].message}"
-                           + (f" (+{len(errs) - 1} more)" if len(errs) > 1 else ""), errs)
+        raise CompileError(f"{program} does not compile: {describe(errs[0])}"
+                           + (f" (+{len(errs) - 1} more, -v lists them)" if len(errs) > 1 else ""),
+                           errs)
     return model
 
 
@@ -260,7 +345,9 @@ def _compile(program: Path, source: str | None = None):
 @guarded
 def check(
     program: Annotated[Path, typer.Argument(help="The program to check.")],
-    json_: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
+    json_: Annotated[bool, typer.Option("--json", help="Print the report as JSON (also when the "
+                                                       "program does not compile).")] = False,
+    quiet: QuietOption = False,
 ) -> None:
     """Run every gate (compile, mate, connectivity) and the mesh metrics on PROGRAM.
 
@@ -268,54 +355,29 @@ def check(
     """
     import json
 
+    from .errors import CompileError
     from .gates import check_model
+    from .paths import program_name
     source = _read(program)
-    model = _compile(program, source)
-    report = check_model(model, source)
+    with _progress(quiet) as progress:
+        try:
+            model = _compile(program, source, progress=progress)
+        except CompileError as exc:
+            if not json_:
+                raise
+            typer.echo(json.dumps({"model": program_name(program), "passed": False,
+                                   "compiled": False, "error": str(exc),
+                                   "findings": [f.as_dict() for f in exc.findings]}, indent=2))
+            raise typer.Exit(EXIT_USAGE) from None
+        progress("running the gates")
+        report = check_model(model, source)
     data = report.as_dict()
     if json_:
-        typer.echo(json.dumps(data, indent=2))
+        typer.echo(json.dumps({**data, "compiled": True}, indent=2))
     else:
-        _print_check(data)
+        from .console import print_check
+        print_check(data)
     raise typer.Exit(EXIT_OK if report.passed else EXIT_FAIL)
-
-
-def _print_check(data: dict[str, Any]) -> None:
-    from rich.console import Console
-    from rich.table import Table
-    con = Console()
-    tp = Table(title=f"parts: {data['model']}")
-    for col in ("part", "triangles", "errors", "verdict"):
-        tp.add_column(col)
-    for name, tris in data["triangles_per_part"].items():
-        errs = [f for f in data["findings"] if f.get("part") == name and f.get("severity") == "error"]
-        tp.add_row(name, str(tris), "; ".join(f.get("code", "") for f in errs),
-                   "[red]FAIL[/]" if errs else "[green]pass[/]")
-    con.print(tp)
-    t = Table(title=f"mate gate: {data['model']}")
-    for col in ("mate", "area mm^2", "limit", "penetration mm", "limit", "verdict"):
-        t.add_column(col)
-    for name, m in data["mates"].items():
-        ok = m.get("passed")
-        t.add_row(name, f"{m.get('area_mm2', float('nan')):.3g}", f"{m.get('area_limit_mm2', float('nan')):.3g}",
-                  f"{m.get('penetration_mm', float('nan')):.3g}",
-                  f"{m.get('penetration_limit_mm', float('nan')):.3g}",
-                  "[green]pass[/]" if ok else "[red]FAIL[/]")
-    con.print(t)
-    conn, met = data["connectivity"], data["metrics"]
-    t2 = Table(title="connectivity and metrics")
-    t2.add_column("measure")
-    t2.add_column("value")
-    for k, v in (("N_vis (tau = %g)" % conn.get("tau", 0.01), conn.get("n_vis")),
-                 ("components", conn.get("components")), ("span mm", conn.get("span_mm")),
-                 ("triangles", met.get("triangles")), ("Shrp60 mm", met.get("shrp60_mm")),
-                 ("Shrp60 / span", met.get("shrp60_per_span")), ("Dih95 deg", met.get("dih95_deg"))):
-        t2.add_row(k, str(v))
-    con.print(t2)
-    for f in data["findings"]:
-        colour = "red" if f.get("severity") == "error" else "yellow"
-        con.print(f"[{colour}]{f.get('severity')}[/] {f.get('code')}: {f.get('message')}")
-    con.print("[green]all gates pass[/]" if data["passed"] else "[red]a gate failed[/]")
 
 
 @app.command()
@@ -330,16 +392,31 @@ def render(
     sheet: Annotated[bool, typer.Option("--sheet", help="Also write a contact sheet with legend.")] = False,
     close_up: Annotated[Optional[str], typer.Option("--close-up", help="A part or mate name.")] = None,
     frames: Annotated[bool, typer.Option("--frames", help="Draw every mate frame's axes.")] = False,
+    quiet: QuietOption = False,
 ) -> None:
     """Render views of PROGRAM (parts-colour, grey clay or PBR), with cache and staleness."""
-    from .errors import EditError
+    from .errors import EditError, RangeError
     from .render import render_to_dir
-    model = _compile(program)
+    from .render.api import MODES, SIZE_RANGE
+    from .render.views import parse_views
+    if mode not in MODES:  # refused before the compile
+        raise EditError(f"unknown render mode {mode!r}; use one of: {', '.join(MODES)}")
+    if not SIZE_RANGE[0] <= size <= SIZE_RANGE[1]:
+        raise EditError(str(RangeError("--size", size, *SIZE_RANGE, unit="px")))
     try:
-        res = render_to_dir(model, out, views=views, mode=mode, size=size, sheet=sheet,  # type: ignore[arg-type]
-                            close_up=close_up, frames_overlay=frames)
+        parse_views(views)
     except ValueError as exc:
         raise EditError(str(exc)) from None
+    _read(program)
+    _output_dir(out)
+    with _progress(quiet) as progress:
+        model = _compile(program, progress=progress)
+        progress("rendering")
+        try:
+            res = render_to_dir(model, out, views=views, mode=mode, size=size, sheet=sheet,  # type: ignore[arg-type]
+                                close_up=close_up, frames_overlay=frames)
+        except ValueError as exc:
+            raise EditError(str(exc)) from None
     typer.echo(f"{len(res.rendered)} rendered, {len(res.cached)} from cache "
                f"({res.seconds:.2f} s) -> {out}")
     if res.stale_before:
@@ -362,14 +439,23 @@ def generate(
     attempts: Annotated[int, typer.Option(min=1, max=10, help="Model calls allowed.")] = 3,
     timeout: Annotated[Optional[float], typer.Option(help="Seconds to wait for one reply.")] = None,
     formats: Annotated[Optional[str], typer.Option(help="Exports (default: all).")] = None,
+    quiet: QuietOption = False,
 ) -> None:
     """Generate a program from PROMPT with a model (one-shot mode), then build it."""
     from .agent.oneshot import generate as run
+    from .errors import InputError
     from .llm import ConfigError, LLMError
-    png = image.read_bytes() if image else None
     try:
-        res = run(prompt, out, model=model, base_url=base_url, max_cost_usd=max_cost,
-                  attempts=attempts, image=png, timeout_s=timeout, formats=_formats(formats))
+        png = image.read_bytes() if image else None
+    except OSError as exc:
+        raise InputError(f"cannot read input {image}: {(exc.strerror or str(exc)).lower()}") from None
+    fmts = _formats(formats)
+    _output_dir(out)
+    try:
+        with _progress(quiet) as progress:
+            res = run(prompt, out, model=model, base_url=base_url, max_cost_usd=max_cost,
+                      attempts=attempts, image=png, timeout_s=timeout, formats=fmts,
+                      progress=progress)
     except ConfigError as exc:
         _err(str(exc))
         raise typer.Exit(EXIT_USAGE) from None
@@ -395,14 +481,18 @@ def doctor(
     """Check the CAD kernel, renderer, MuJoCo, USD, FreeCAD and the provider."""
     from .doctor import run_checks
     checks = run_checks(model=model, base_url=base_url, ping=ping)
+    from .text import terminal_safe
     for c in checks:
-        typer.echo(c.line())
+        typer.echo(terminal_safe(c.line()))  # a provider's error text is not ours
     missing = [c for c in checks if not c.ok and not c.optional]
     raise typer.Exit(EXIT_FAIL if missing else EXIT_OK)
 
 
 def main() -> None:
-    """Console-script entry point."""
+    """Console-script entry point: Ctrl-C ends the process within a second or two (exit 130),
+    with report.json written and the compile worker gone (see :mod:`procedura_brep.interrupt`)."""
+    from . import interrupt
+    interrupt.install()
     app()
 
 

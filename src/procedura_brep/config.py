@@ -115,3 +115,37 @@ class SandboxLimits:
 
 TOL = Tolerances()
 SANDBOX = SandboxLimits()
+
+
+@dataclass(frozen=True)
+class TerminalLimits:
+    """What the CLI prints of text that came from a program or a model (see ``text.py``).
+
+    Attributes:
+        message_chars: a message longer than this is cut on the terminal (the full text stays
+            in report.json), with a note of how many characters were left out.
+    """
+
+    message_chars: int = 2000
+
+
+TERMINAL = TerminalLimits()
+
+
+@dataclass(frozen=True)
+class ParentLimits:
+    """Limits of the forked child that meshes, exports, gates and simulates a compiled model
+    (``procedura_brep.isolate``), so a blow-up there is a one-line error with report.json
+    written, never a dead or hung CLI.
+
+    Attributes:
+        address_space_bytes: RLIMIT_AS of the child. It includes what the CLI process has
+            already mapped (about 1.5 GiB of libraries after its imports).
+        wall_s: the child is killed after this many wall-clock seconds.
+    """
+
+    address_space_bytes: int = 12 * 1024**3
+    wall_s: float = 1800.0
+
+
+PARENT = ParentLimits()

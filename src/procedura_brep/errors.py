@@ -51,3 +51,18 @@ class KernelError(ProceduraError):
 
 class EditError(ProceduraError):
     """``edit --set`` was given an unknown param or an unusable value."""
+
+
+class InputError(ProceduraError):
+    """An input file cannot be used: missing, unreadable, a directory, or not UTF-8 text."""
+
+
+class OutputError(ProceduraError):
+    """An output path cannot be written: it is a file, under a file, read-only or not permitted.
+
+    The message is ``cannot write output PATH: reason``.
+    """
+
+    def __init__(self, path: object, reason: str) -> None:
+        self.path, self.reason = path, reason
+        super().__init__(f"cannot write output {path}: {reason}")

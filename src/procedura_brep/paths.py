@@ -21,6 +21,18 @@ def program_name(path: Path) -> str:
     return f"model_{text}" if text[0].isdigit() else text
 
 
+def json_default(o: object) -> object:
+    """``json.dumps(default=...)`` for NumPy arrays and scalars and tuples."""
+    import numpy as np
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, tuple):
+        return list(o)
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+
 def write_atomic(path: Path, data: bytes | str, *, mode: int = 0o644) -> Path:
     """Write ``data`` to ``path`` through a temp file in the same folder and a rename, so a
     killed process never leaves a half-written file. Returns ``path``."""

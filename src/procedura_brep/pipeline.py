@@ -1,40 +1,35 @@
 """``build``: compile a program in the sandbox and write the run directory.
 
 Writes ``program.py``, ``model.step``, ``mates.json``, ``report.json`` and (by default) every
-other export of the bundle. Each file is written atomically (temp file + rename), so a killed
-build never leaves a half-written file. ``report.json`` is written even when the build fails.
+other export of the bundle, first into a staging folder that is then swapped in (see
+:mod:`procedura_brep.rundir` for the policy when a build fails or is interrupted).
+``report.json`` is written on every exit path.
 """
 
 from __future__ import annotations
 
 import json
 import logging
+import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .errors import CompileError, ProceduraError
-from .paths import program_name, write_atomic
+from . import interrupt
+from .errors import CompileError, OutputError, ProceduraError
+from .paths import json_default, program_name, write_atomic
+from .rundir import Staging
 from .program.model import CompiledModel, Finding
 
 log = logging.getLogger(__name__)
 
 
 def dump_json(obj: Any) -> str:
-    return json.dumps(obj, indent=2, sort_keys=False, ensure_ascii=False, default=_json_default) + "\n"
-
-
-def _json_default(o: Any) -> Any:
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, (np.floating, np.integer)):
-        return o.item()
-    if isinstance(o, tuple):
-        return list(o)
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+    return json.dumps(obj, indent=2, sort_keys=False, ensure_ascii=False, default=json_default) + "\n"
 
 
 def _frame_dict(m: np.ndarray) -> dict[str, Any]:
@@ -91,19 +86,35 @@ class BuildResult:
         return self.status == "ok"
 
     @property
+    def errors(self) -> list[Finding]:
+        """The findings that failed the build, in order."""
+        return [f for f in self.findings if f.severity == "error"]
+
+    @property
     def reason(self) -> str:
-        errs = [f for f in self.findings if f.severity == "error"]
+        """The first error (with its program line), plus how many more there are."""
+        errs = self.errors
         if not errs:
             return self.status
-        more = f" (+{len(errs) - 1} more, see report.json)" if len(errs) > 1 else ""
-        return errs[0].message + more
+        more = f" (+{len(errs) - 1} more, see report.json or -v)" if len(errs) > 1 else ""
+        return describe(errs[0]) + more
+
+
+def describe(f: Finding) -> str:
+    """A finding as one line for people: its message plus the program line, when known and
+    not already in the message."""
+    if f.line and f"line {f.line}" not in f.message:
+        return f"{f.message} (program line {f.line})"
+    return f.message
 
 
 def compile_file(source: str, name: str) -> CompiledModel:
     """Compile in the warm worker; while it boots (~3 s), load the parent's OCP modules."""
     from . import kernel
-    from .program.sandbox import compile_source, default_worker
-    default_worker()  # starts the worker process now, returns at once
+    from .program.sandbox import compile_source, default_worker, kill_default_worker
+    with interrupt.children_ignore_sigint():  # the terminal's Ctrl-C is ours to handle
+        default_worker()  # starts the worker process now, returns at once
+    interrupt.add_cleanup(kill_default_worker)
     kernel.warm_up()
     _warm_exports()
     return compile_source(source, name=name)
@@ -125,8 +136,14 @@ def _warm_exports() -> None:
 
 def build(program: Path, out_dir: Path, *, formats: tuple[str, ...] | None = None,
           name: str | None = None, gates: bool = True, source: str | None = None,
-          simulate: bool = False, step_schema: str = "AP214") -> BuildResult:
+          simulate: bool = False, step_schema: str = "AP214",
+          progress: Progress | None = None) -> BuildResult:
     """Compile ``program`` and write the run directory ``out_dir``.
+
+    The build goes to a staging folder inside ``out_dir`` and is swapped in when done, so the
+    directory never mixes two builds (policy: :mod:`procedura_brep.rundir`). report.json is
+    written on every exit path: success, findings, an export error, our own bug (then the
+    exception propagates) and Ctrl-C (status ``interrupted``).
 
     Args:
         program: path of the program file.
@@ -137,35 +154,176 @@ def build(program: Path, out_dir: Path, *, formats: tuple[str, ...] | None = Non
         source: the program text (default: read ``program``).
         simulate: also run the MuJoCo battery and record it in ``report.json``.
         step_schema: ``AP214`` or ``AP242``.
+        progress: called with a short line as each stage starts (compile, exports, gates,
+            battery, save).
+
+    Raises:
+        OutputError: ``out_dir`` cannot be written (before anything is compiled).
     """
     t0 = time.perf_counter()
     name = name or program_name(program)
     source = program.read_text(encoding="utf-8") if source is None else source
-    out_dir.mkdir(parents=True, exist_ok=True)
-    result = BuildResult("failed", out_dir)
-    timings: dict[str, float] = {}
-    write_atomic(out_dir / "program.py", source)
-    result.files["program"] = out_dir / "program.py"
+    from .export.bundle import parse_formats
+    fmts = tuple(dict.fromkeys(("step", *parse_formats(formats))))
+    run = _Run(Staging(out_dir), BuildResult("failed", out_dir), t0, progress)
+    with interrupt.on_interrupt(run.interrupted):
+        try:
+            run.staging.write("program.py", source)
+            _build_into(run, source, name, fmts, gates=gates, simulate=simulate,
+                        step_schema=step_schema)
+        except KeyboardInterrupt:
+            run.interrupted()
+            raise
+        except OutputError:
+            run.staging.discard()
+            raise
+        except ProceduraError as exc:  # e.g. the mate graph is not a tree: a finding
+            run.fail("failed", [Finding(run.stage, str(exc))])
+        except BaseException as exc:
+            run.fail("failed", [Finding("internal", f"{run.stage} failed: {type(exc).__name__}: {exc}")])
+            raise
+    return run.result
+
+
+Progress = Callable[[str], None]
+
+
+class _Run:
+    """One build in progress: its staging folder, result and stage; finishes exactly once
+    (the main thread and the Ctrl-C watcher may both try)."""
+
+    def __init__(self, staging: Staging, result: BuildResult, t0: float,
+                 progress: Progress | None) -> None:
+        self.staging, self.result, self.t0 = staging, result, t0
+        self.timings: dict[str, float] = {}
+        self.stage = "start"
+        self._progress = progress
+        self._lock = threading.Lock()
+        self._done = self._finished = False
+
+    def enter(self, stage: str, line: str) -> None:
+        self.stage = stage
+        if self._progress is not None:
+            self._progress(line)
+
+    def _claim(self, *, interrupt_wins: bool = False) -> bool:
+        """Whether the caller finishes the run. The interrupt's watcher may take over a finish
+        the main thread started but could not complete (it waits on the watcher's commit lock)."""
+        if not interrupt_wins and interrupt.stopping():
+            interrupt.hold()  # the watcher writes the interrupted report and ends the process
+        with self._lock:
+            if self._finished or (self._done and not interrupt_wins):
+                return False
+            self._done = True
+            return True
+
+    def succeed(self, status: str) -> None:
+        if not self._claim():
+            return
+        self._finish_ok(status)
+        self._finished = True
+
+    def _finish_ok(self, status: str) -> None:
+        self.result.status = status
+        report = _report(self.result, self.timings, self.t0)
+        report["complete"] = True
+        self.staging.write("report.json", dump_json(report))
+        self.staging.commit()
+        out = self.result.out_dir
+        self.result.files = {rel: out / rel for rel in self.result.files}
+        self.result.files.update(program=out / "program.py", mates=out / "mates.json",
+                                 report=out / "report.json")
+
+    def fail(self, status: str, findings: list[Finding] | None = None, *,
+             interrupt_wins: bool = False) -> None:
+        if not self._claim(interrupt_wins=interrupt_wins):
+            return
+        self._finish_failed(status, findings)
+        self._finished = True
+
+    def _finish_failed(self, status: str, findings: list[Finding] | None) -> None:
+        self.result.status = status
+        if findings is not None:
+            self.result.findings = [*self.result.findings, *findings]
+        report = self.staging.finish_failed(_report(self.result, self.timings, self.t0), dump_json)
+        self.result.report = report
+        out = self.result.out_dir
+        self.result.files = {"report": out / "report.json"}
+        if not report.get("kept_previous"):
+            self.result.files["program"] = out / "program.py"
+
+    def interrupted(self) -> None:
+        self.fail("interrupted", [Finding("interrupted", f"the build was interrupted during "
+                                                         f"{self.stage}")], interrupt_wins=True)
+
+
+def _build_into(run: _Run, source: str, name: str, fmts: tuple[str, ...], *, gates: bool,
+                simulate: bool, step_schema: str) -> None:
+    result, timings, staging = run.result, run.timings, run.staging
+    run.enter("compile", f"compiling {name}")
     try:
         t = time.perf_counter()
         model = compile_file(source, name)
         timings["compile_s"] = time.perf_counter() - t
     except CompileError as exc:
         result.findings = exc.findings or [Finding("compile", str(exc))]
-        _write_report(result, timings, t0)
-        return result
+        run.fail("failed")
+        return
     result.model = model
     result.findings = list(model.findings)
     if not model.ok:
-        _write_report(result, timings, t0)
-        return result
-    from .export.bundle import parse_formats, write_bundle
-    fmts = tuple(dict.fromkeys(("step", *parse_formats(formats))))
+        run.fail("failed")
+        return
+    from .isolate import ChildFailure, run_limited
+    run.enter("export", f"writing {len(model.parts)} parts as {', '.join(fmts)}")
+
+    def heavy(send: Callable[[dict[str, Any]], None]) -> dict[str, Any]:
+        return after_compile(model, source, staging.dir, fmts, gates=gates, simulate=simulate,
+                             step_schema=step_schema, send=send)
+
+    try:
+        out = run_limited(heavy, stage="export",
+                          on_message=lambda m: run.enter(str(m["stage"]), str(m["line"])))
+    except ChildFailure as exc:
+        if exc.kind != "error":  # out of memory, over time, killed: a finding, not a dead CLI
+            run.fail("failed", [Finding(f"parent-{exc.kind}", str(exc))])
+            return
+        if exc.exc_type == "KeyboardInterrupt":
+            raise KeyboardInterrupt from None
+        if exc.oserror:
+            raise OutputError(result.out_dir, str(exc)) from None
+        if exc.procedura:  # e.g. the mate graph is not a tree
+            run.fail("failed", [Finding(exc.stage, str(exc))])
+            return
+        raise RuntimeError(f"{exc.exc_type} in the {exc.stage} stage: {exc}") from None
+    result.files.update({rel: staging.dir / rel for rel in out["files"]})
+    timings.update(out["timings"])
+    result.report.update(out["report"])
+    keys = Finding.__dataclass_fields__
+    result.findings += [Finding(**{k: v for k, v in f.items() if k in keys}) for f in out["findings"]]
+    run.enter("save", f"saving {result.out_dir}")
+    if not result.report.get("gates", {}).get("passed", True):
+        run.succeed("gates_failed")
+    elif not result.report.get("battery", {}).get("passed", True):
+        run.succeed("battery_failed")
+    else:
+        run.succeed("ok")
+
+
+def after_compile(model: CompiledModel, source: str, root: Path, fmts: tuple[str, ...], *,
+                  gates: bool, simulate: bool, step_schema: str,
+                  send: Callable[[dict[str, Any]], None]) -> dict[str, Any]:
+    """Exports, mates.json, gates and battery into ``root`` (the staging folder): everything
+    that tessellates. Runs in the limited child of :func:`procedura_brep.isolate.run_limited`;
+    returns what the parent needs (JSON-safe)."""
+    from .export.bundle import write_bundle
+    timings: dict[str, float] = {}
+    report: dict[str, Any] = {}
+    findings: list[Finding] = []
     t = time.perf_counter()
     bundle_t: dict[str, float] = {}
-    written = write_bundle(model, out_dir, formats=fmts, timings=bundle_t,
+    written = write_bundle(model, root, formats=fmts, timings=bundle_t,
                            step_schema=step_schema)  # type: ignore[arg-type]
-    result.files.update({rel: path for rel, path in written.items()})
     timings.update({f"export_{k}_s": v for k, v in bundle_t.items()})
     timings["export_s"] = time.perf_counter() - t
     evidence = None
@@ -174,22 +332,54 @@ def build(program: Path, out_dir: Path, *, formats: tuple[str, ...] | None = Non
         from .articulation import mates_evidence
         evidence = mates_evidence(model)
         timings["evidence_s"] = time.perf_counter() - t
-    write_atomic(out_dir / "mates.json", dump_json(mates_json(model, evidence)))
-    result.files["mates"] = out_dir / "mates.json"
+    write_atomic(root / "mates.json", dump_json(mates_json(model, evidence)))
     if gates:
+        send({"stage": "gates", "line": "running the gates"})
         t = time.perf_counter()
-        result.report["gates"] = run_gates(model, source)
+        report["gates"] = run_gates(model, source)
         timings["gates_s"] = time.perf_counter() - t
+        findings += gate_failures(report["gates"])
     if simulate:
+        send({"stage": "battery", "line": "running the MuJoCo battery"})
         t = time.perf_counter()
         from .sim import run_battery
-        result.report["battery"] = run_battery(out_dir, out_dir=out_dir).as_dict()
+        frames = not _gl_in_use()
+        report["battery"] = run_battery(root, out_dir=root, frames=frames).as_dict()
+        if not frames:
+            report["battery"].setdefault("notes", []).append(
+                "no failure frames: this process inherited a GL context, which a forked child "
+                "cannot use")
         timings["battery_s"] = time.perf_counter() - t
-    passed = (result.report.get("gates", {}).get("passed", True)
-              and result.report.get("battery", {}).get("passed", True))
-    result.status = "ok" if model.ok and passed else "gates_failed"
-    _write_report(result, timings, t0)
-    return result
+        findings += battery_failures(report["battery"])
+    return {"files": [*written, "mates.json"], "timings": timings, "report": report,
+            "findings": [f.as_dict() for f in findings]}
+
+
+def _gl_in_use() -> bool:
+    """Whether this process inherited a GL context (its driver threads do not survive a fork,
+    so the child must not draw battery frames with it)."""
+    import sys
+    gl = sys.modules.get("procedura_brep.render.gl")
+    return getattr(gl, "_RENDERER", None) is not None
+
+
+def gate_failures(gates: dict[str, Any]) -> list[Finding]:
+    """The gate report's error findings as :class:`Finding` objects."""
+    keys = Finding.__dataclass_fields__
+    return [Finding(**{k: v for k, v in f.items() if k in keys}) for f in gates.get("findings", [])
+            if f.get("severity", "error") == "error" and "code" in f and "message" in f]
+
+
+def battery_failures(battery: dict[str, Any]) -> list[Finding]:
+    """One finding per failed battery check, naming the check (``battery-B2`` ...)."""
+    out = []
+    for c in battery.get("checks", []):
+        if c.get("passed") or c.get("skipped"):
+            continue
+        label = f"{c.get('id')} ({c['name']})" if c.get("name") else str(c.get("id"))
+        out.append(Finding(f"battery-{c.get('id')}", f"battery {label} failed: "
+                                                     f"{c.get('message') or 'no message'}"))
+    return out
 
 
 def run_gates(model: CompiledModel, source: str) -> dict[str, Any]:
@@ -198,7 +388,7 @@ def run_gates(model: CompiledModel, source: str) -> dict[str, Any]:
     return check_model(model, source).as_dict()
 
 
-def _write_report(result: BuildResult, timings: dict[str, float], t0: float) -> None:
+def _report(result: BuildResult, timings: dict[str, float], t0: float) -> dict[str, Any]:
     model = result.model
     timings["total_s"] = time.perf_counter() - t0
     report: dict[str, Any] = {
@@ -217,5 +407,4 @@ def _write_report(result: BuildResult, timings: dict[str, float], t0: float) -> 
                             "primary": m.primary, "residual_mm": m.residual_mm,
                             "residual_rad": m.residual_rad} for m in model.mates]
     result.report = report
-    write_atomic(result.out_dir / "report.json", dump_json(report))
-    result.files["report"] = result.out_dir / "report.json"
+    return report

@@ -13,6 +13,7 @@ import re
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
+from collections.abc import Callable
 from typing import Any
 
 from ..llm import (BudgetExceeded, Client, Image, Ledger, LLMError, Message, Request, Settings,
@@ -62,8 +63,12 @@ class GenerateResult:
 
 def generate(prompt: str, out_dir: Path, *, model: str, base_url: str | None = None,
              max_cost_usd: float | None = None, attempts: int = 3, image: bytes | None = None,
-             timeout_s: float | None = None, formats: tuple[str, ...] | None = None) -> GenerateResult:
+             timeout_s: float | None = None, formats: tuple[str, ...] | None = None,
+             progress: Callable[[str], None] | None = None) -> GenerateResult:
     """Generate a program for ``prompt`` and build it into ``out_dir``.
+
+    ``progress`` (the CLI's stage lines) hears each call, the build's stages and, after a
+    failed attempt, what the feedback to the model says.
 
     Raises:
         ConfigError / ProviderError: bad model name or key, unreachable endpoint (one line).
@@ -81,9 +86,12 @@ def generate(prompt: str, out_dir: Path, *, model: str, base_url: str | None = N
     images = (Image(image, "reference.png"),) if image else ()
     messages: list[Message] = [Message.user(template("oneshot_user").replace("{prompt}", prompt), *images)]
     result = GenerateResult("failed", out_dir)
+    say = progress or (lambda line: None)
+    note = getattr(progress, "note", say)
     try:
         for attempt in range(attempts):
             result.attempts = attempt + 1
+            say(f"attempt {attempt + 1}/{attempts}: asking {model}")
             reply = client.complete(Request("oneshot", attempt, system, tuple(messages),
                                             Settings(max_tokens=16000, temperature=0.2)))
             messages.append(Message.assistant(reply.text))
@@ -91,16 +99,23 @@ def generate(prompt: str, out_dir: Path, *, model: str, base_url: str | None = N
                 source = extract_program(reply.text)
             except MalformedReplyError as exc:
                 result.message = str(exc)
+                note(f"attempt {attempt + 1}/{attempts}: {exc}"
+                     + ("; sent back to the model as feedback" if attempt + 1 < attempts else ""))
                 messages.append(Message.user(template("feedback").replace("{findings}", f"- {exc}")))
                 continue
             write_atomic(out_dir / "history" / f"{attempt + 1:03d}.py", source)
             result.build = build(out_dir / "program.py", out_dir, source=source, formats=formats,
-                                 name=None)
+                                 name=None, progress=progress)
             if result.build.ok:
                 result.status = "ok"
+                note(f"attempt {attempt + 1}/{attempts}: built")
                 break
             result.message = result.build.reason
+            sent = result.build.errors or _gate_findings(result.build)
             feedback = format_findings(result.build.findings or _gate_findings(result.build), source)
+            note(f"attempt {attempt + 1}/{attempts}: build {result.build.status}: {result.message}")
+            if attempt + 1 < attempts:
+                note(f"  feedback to the model: {_feedback_summary(sent)}")
             messages.append(Message.user(template("feedback").replace("{findings}", feedback)))
     except BudgetExceeded as exc:
         result.status, result.message = "budget_exceeded", str(exc)
@@ -114,6 +129,16 @@ def generate(prompt: str, out_dir: Path, *, model: str, base_url: str | None = N
             if not in_flight:
                 raise
     return result
+
+
+def _feedback_summary(findings: list[Finding]) -> str:
+    """The findings sent back, in a line: how many, and each one's message (program line)."""
+    if not findings:
+        return "the build failed without findings"
+    from ..pipeline import describe
+    shown = "; ".join(describe(f) for f in findings[:3])
+    more = f" (+{len(findings) - 3} more)" if len(findings) > 3 else ""
+    return f"{len(findings)} finding(s): {shown}{more}"
 
 
 def _gate_findings(b: BuildResult) -> list[Finding]:

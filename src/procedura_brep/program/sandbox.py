@@ -177,3 +177,45 @@ def compile_source(source: str, *, name: str = "model", limits: SandboxLimits | 
 
 
 __all__ = ["CompileOptions", "Worker", "compile_source", "default_worker", "clean_env", "replace"]
+
+
+def kill_default_worker() -> None:
+    """Ctrl-C path: end the default worker and every compile child it forked, now.
+
+    Each compile child leads its own session, so neither the terminal's SIGINT nor the worker's
+    death reaches it: the worker is stopped (so it forks no more), its children's process
+    groups are killed, then the worker. Safe to call from any thread.
+    """
+    import signal
+    w = _DEFAULT
+    proc = w._proc if w is not None else None
+    if proc is None or proc.poll() is not None:
+        return
+    try:
+        os.kill(proc.pid, signal.SIGSTOP)
+    except OSError:
+        return
+    for pid in _child_pids(proc.pid):
+        for kill in (os.killpg, os.kill):
+            try:
+                kill(pid, signal.SIGKILL)
+            except OSError:
+                pass
+    w.close()
+
+
+def _child_pids(parent: int) -> list[int]:
+    """The pids whose parent is ``parent`` (from /proc)."""
+    out = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/stat", "rb") as fh:
+                stat = fh.read()
+        except OSError:
+            continue
+        fields = stat[stat.rfind(b")") + 2:].split()
+        if len(fields) > 1 and int(fields[1]) == parent:
+            out.append(int(entry))
+    return out

@@ -1,0 +1,100 @@
+"""What the CLI prints: one-line errors, and the ``check`` and ``simulate`` tables.
+
+Part, mate and check names, measured values and messages come from a program (or a model), so
+every cell goes through :func:`procedura_brep.text.markup_safe` (no escape sequences, no
+control characters, rich markup escaped, length capped) before ``rich`` sees it.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Any
+
+import typer
+
+from .text import markup_safe, terminal_safe
+
+#: Cells in the tables are cut to this many characters (full values are in the JSON).
+CELL_CHARS = 60
+
+
+def err(msg: str) -> None:
+    """``error: MSG`` on stderr, as one safe line."""
+    typer.echo(f"error: {terminal_safe(msg)}", err=True)
+
+
+def more(lines: list[str]) -> None:
+    """Further error lines (``-v``), indented, on stderr."""
+    for line in lines:
+        typer.echo(f"  also: {terminal_safe(line)}", err=True)
+
+
+def _cell(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    return markup_safe(v, limit=CELL_CHARS)
+
+
+def _num(v: Any) -> str:
+    return f"{v:.3g}" if isinstance(v, (int, float)) else markup_safe(v, limit=CELL_CHARS)
+
+
+def print_battery(data: dict[str, Any]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+    t = Table(title="MuJoCo battery")
+    for col in ("check", "name", "verdict", "measured", "limits", "message"):
+        t.add_column(col, overflow="fold")
+    for c in data["checks"]:
+        verdict = "[yellow]skip[/]" if c.get("skipped") else ("[green]pass[/]" if c["passed"] else "[red]FAIL[/]")
+        meas = ", ".join(f"{_cell(k)}={_cell(v)}" for k, v in (c.get("measured") or {}).items())
+        lim = ", ".join(f"{_cell(k)}={_cell(v)}" for k, v in (c.get("limits") or {}).items())
+        t.add_row(_cell(c["id"]), _cell(c.get("name", "")), verdict, meas, lim,
+                  markup_safe(c.get("message", "")))
+    con = Console(file=sys.stdout)
+    con.print(t)
+    for n in data.get("notes", []):
+        con.print(f"note: {markup_safe(n)}")
+    con.print("[green]all checks pass[/]" if data["passed"] else "[red]a check failed[/]")
+
+
+def print_check(data: dict[str, Any]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+    con = Console(file=sys.stdout)
+    model = markup_safe(data["model"], limit=CELL_CHARS)
+    tp = Table(title=f"parts: {model}")
+    for col in ("part", "triangles", "errors", "verdict"):
+        tp.add_column(col)
+    for name, tris in data["triangles_per_part"].items():
+        errs = [f for f in data["findings"] if f.get("part") == name and f.get("severity") == "error"]
+        tp.add_row(_cell(name), str(tris), markup_safe("; ".join(f.get("code", "") for f in errs)),
+                   "[red]FAIL[/]" if errs else "[green]pass[/]")
+    con.print(tp)
+    t = Table(title=f"mate gate: {model}")
+    for col in ("mate", "area mm^2", "limit", "penetration mm", "limit", "verdict"):
+        t.add_column(col)
+    for name, m in data["mates"].items():
+        t.add_row(_cell(name), _num(m.get("area_mm2", float("nan"))),
+                  _num(m.get("area_limit_mm2", float("nan"))), _num(m.get("penetration_mm", float("nan"))),
+                  _num(m.get("penetration_limit_mm", float("nan"))),
+                  "[green]pass[/]" if m.get("passed") else "[red]FAIL[/]")
+    con.print(t)
+    conn, met = data["connectivity"], data["metrics"]
+    t2 = Table(title="connectivity and metrics")
+    t2.add_column("measure")
+    t2.add_column("value")
+    for k, v in (("N_vis (tau = %g)" % conn.get("tau", 0.01), conn.get("n_vis")),
+                 ("components", conn.get("components")), ("span mm", conn.get("span_mm")),
+                 ("triangles", met.get("triangles")), ("Shrp60 mm", met.get("shrp60_mm")),
+                 ("Shrp60 / span", met.get("shrp60_per_span")), ("Dih95 deg", met.get("dih95_deg"))):
+        t2.add_row(k, markup_safe(v, limit=CELL_CHARS))
+    con.print(t2)
+    for f in data["findings"]:
+        colour = "red" if f.get("severity") == "error" else "yellow"
+        con.print(f"[{colour}]{markup_safe(f.get('severity'))}[/] {markup_safe(f.get('code'))}: "
+                  f"{markup_safe(f.get('message'))}")
+    con.print("[green]all gates pass[/]" if data["passed"] else "[red]a gate failed[/]")
+
+
+__all__ = ["err", "more", "print_battery", "print_check", "CELL_CHARS"]

@@ -1,0 +1,132 @@
+"""Ctrl-C during a real ``procedura-brep build`` subprocess: exit 130 within a bound, no compile
+worker or compile child left, report.json says ``interrupted``, an earlier good build is kept.
+
+The signal goes to the whole process group, as a terminal sends it. Each case waits for the
+build's own progress line of a stage (stderr is not a TTY, so they are plain lines) and then
+interrupts, so the stage is hit whatever the machine's load.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+import uuid
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+ROVER = ROOT / "golden" / "rover" / "program.py"
+LAMP = Path(__file__).parent / "program" / "lamp.py"
+#: Generous on a loaded 2-core machine; the interrupt itself is measured at well under a second.
+BOUND_S = 10.0
+
+
+def _env(mark: str) -> dict[str, str]:
+    env = dict(os.environ, PROCEDURA_TEST_MARK=mark)
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src"), env.get("PYTHONPATH", "")])
+    return env
+
+
+def _marked_pids(mark: str) -> list[int]:
+    """Processes still carrying ``mark`` in their environment (the CLI, its worker, the worker's
+    compile children, whatever their session)."""
+    found = []
+    needle = f"PROCEDURA_TEST_MARK={mark}".encode()
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            with open(f"/proc/{entry}/environ", "rb") as fh:
+                if needle in fh.read():
+                    found.append(int(entry))
+        except OSError:
+            continue
+    return found
+
+
+def interrupt_build(program: Path, out: Path, *, when: str | None, delay_s: float = 0.0,
+                    extra: tuple[str, ...] = ()) -> tuple[int, float, str, list[int]]:
+    """Run a build, send SIGINT to its group once stderr shows ``when`` (or after ``delay_s``);
+    returns (exit code, seconds from signal to exit, stderr, pids left)."""
+    mark = uuid.uuid4().hex
+    proc = subprocess.Popen([sys.executable, "-m", "procedura_brep.cli", "build", str(program),
+                             "-o", str(out), *extra], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=_env(mark), cwd=ROOT,
+                            start_new_session=True)
+    seen = threading.Event()
+    lines: list[str] = []
+
+    def read() -> None:
+        assert proc.stderr is not None
+        for line in proc.stderr:
+            lines.append(line)
+            if when is not None and when in line:
+                seen.set()
+
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
+    try:
+        if when is not None:
+            assert seen.wait(120), f"never saw {when!r}: {''.join(lines)}"
+        time.sleep(delay_s)
+        assert proc.poll() is None, f"the build ended before the signal: {''.join(lines)}"
+        t = time.monotonic()
+        os.killpg(proc.pid, signal.SIGINT)
+        code = proc.wait(timeout=60)
+        dt = time.monotonic() - t
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    reader.join(5)
+    deadline = time.monotonic() + 2.0
+    left = _marked_pids(mark)
+    while left and time.monotonic() < deadline:  # a SIGKILLed child takes a moment to be reaped
+        time.sleep(0.05)
+        left = _marked_pids(mark)
+    return code, dt, "".join(lines), left
+
+
+@pytest.mark.parametrize("when, delay_s, stage", [
+    ("compiling", 0.05, "compile"),          # the CLI imports OCP, trimesh, MuJoCo, USD
+    ("compiling", 3.0, "compile"),           # the worker compiles the rover's 29 parts
+    ("writing", 0.05, "export"),             # tessellation and the exporters (OCCT)
+    ("running the gates", 0.05, "gates"),
+])
+def test_sigint_stops_a_build_at_every_stage(tmp_path, when, delay_s, stage):
+    out = tmp_path / "run"
+    code, dt, err, left = interrupt_build(ROVER, out, when=when, delay_s=delay_s)
+    assert code == 130, err
+    assert dt < BOUND_S, f"took {dt:.1f} s to stop"
+    assert left == [], f"processes left behind: {left}"
+    assert err.rstrip().endswith("error: interrupted") and "Traceback" not in err, err
+    report = json.loads((out / "report.json").read_text())
+    assert report["status"] == "interrupted"
+    finding = report["findings"][-1]
+    assert finding["code"] == "interrupted"
+    assert finding["message"].endswith(stage), finding
+    # no build existed before: the new program and its report, nothing partial
+    assert sorted(p.name for p in out.iterdir()) == ["program.py", "report.json"]
+
+
+def test_sigint_over_a_good_build_keeps_it(tmp_path):
+    out = tmp_path / "run"
+    done = subprocess.run([sys.executable, "-m", "procedura_brep.cli", "build", str(LAMP), "-o",
+                           str(out), "-q"], capture_output=True, text=True, env=_env("x"), cwd=ROOT)
+    assert done.returncode == 0, done.stderr
+    before = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    code, dt, err, left = interrupt_build(ROVER, out, when="writing", delay_s=0.05)
+    assert code == 130 and dt < BOUND_S and left == [], err
+    after = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert set(after) == set(before)  # no rover file, no staging folder
+    changed = [str(k) for k in before if before[k] != after[k]]
+    assert changed == ["report.json"]
+    report = json.loads((out / "report.json").read_text())
+    assert report["status"] == "interrupted" and report["kept_previous"] is True
+    assert report["previous"]["status"] == "ok" and report["previous"]["program"] == "lamp"
