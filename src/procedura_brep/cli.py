@@ -428,23 +428,47 @@ def render(
 @app.command()
 @guarded
 def generate(
-    prompt: Annotated[str, typer.Argument(help="What to model, in words.")],
-    out: Annotated[Path, typer.Option("-o", "--out", help="The run directory.")],
-    model: Annotated[str, typer.Option("--model", "-m", help="provider:model, e.g. openai:gpt-4o, "
-                                                             "anthropic:..., replay:TAPE, exchange:DIR")],
+    prompt: Annotated[Optional[str], typer.Argument(help="What to model, in words (optional with a "
+                                                         "replay tape or --resume).")] = None,
+    out: Annotated[Optional[Path], typer.Option("-o", "--out", help="The run directory.")] = None,
+    model: Annotated[Optional[str], typer.Option("--model", "-m", help="provider:model, e.g. openai:gpt-4o, "
+                                                 "anthropic:..., replay:TAPE, exchange:DIR (default: "
+                                                 "$PROCEDURA_BREP_MODEL, then the user config file)")] = None,
     base_url: Annotated[Optional[str], typer.Option("--base-url", help="OpenAI-compatible server URL.")] = None,
     image: Annotated[Optional[Path], typer.Option("--image", help="A reference PNG.")] = None,
     max_cost: Annotated[Optional[float], typer.Option("--max-cost", help="Stop before spending more "
                                                                          "than this many USD.")] = None,
-    attempts: Annotated[int, typer.Option(min=1, max=10, help="Model calls allowed.")] = 3,
+    attempts: Annotated[int, typer.Option(min=1, max=10, help="Attempts per part (one-shot: calls).")] = 3,
     timeout: Annotated[Optional[float], typer.Option(help="Seconds to wait for one reply.")] = None,
     formats: Annotated[Optional[str], typer.Option(help="Exports (default: all).")] = None,
+    one_shot: Annotated[bool, typer.Option("--one-shot", help="The control: the whole program in one call.")] = False,
+    no_plan: Annotated[bool, typer.Option("--no-plan", help="Ablation: no assembly plan.")] = False,
+    no_review: Annotated[bool, typer.Option("--no-review", help="Ablation: no plan review.")] = False,
+    no_feedback: Annotated[bool, typer.Option("--no-feedback", help="Ablation: no renders in build calls.")] = False,
+    no_refine: Annotated[bool, typer.Option("--no-refine", help="Ablation: ship the draft.")] = False,
+    no_simulate: Annotated[bool, typer.Option("--no-simulate", help="Skip the MuJoCo battery.")] = False,
+    resume: Annotated[Optional[Path], typer.Option("--resume", help="Continue the killed staged run in DIR.")] = None,
+    json_out: Annotated[bool, typer.Option("--json", help="Print report.json on stdout.")] = False,
     quiet: QuietOption = False,
 ) -> None:
-    """Generate a program from PROMPT with a model (one-shot mode), then build it."""
-    from .agent.oneshot import generate as run
+    """Generate an assembly with a model: plan, review, build one part per call, refine, then build
+    the run directory (``--one-shot``: the whole program in one call)."""
     from .errors import InputError
     from .llm import ConfigError, LLMError
+    from .llm.settings import resolve_model
+    setting = resolve_model(model, base_url)
+    if setting.model is None:
+        _err("no model: pass --model PROVIDER:MODEL, or set PROCEDURA_BREP_MODEL, or write "
+             "model = \"...\" in the user config file (procedura-brep doctor shows where)")
+        raise typer.Exit(EXIT_USAGE)
+    if out is None and resume is None:
+        _err("say where the run goes: -o DIR (or --resume DIR)")
+        raise typer.Exit(EXIT_USAGE)
+    if out is not None and resume is not None and out.resolve() != resume.resolve():
+        _err(f"--resume {resume} and -o {out} name different directories; give one")
+        raise typer.Exit(EXIT_USAGE)
+    out = out or resume
+    assert out is not None
     try:
         png = image.read_bytes() if image else None
     except OSError as exc:
@@ -453,21 +477,94 @@ def generate(
     _output_dir(out)
     try:
         with _progress(quiet) as progress:
-            res = run(prompt, out, model=model, base_url=base_url, max_cost_usd=max_cost,
-                      attempts=attempts, image=png, timeout_s=timeout, formats=fmts,
-                      progress=progress)
+            if one_shot:
+                if resume is not None or not prompt:
+                    _err("--one-shot needs a PROMPT and cannot --resume")
+                    raise typer.Exit(EXIT_USAGE)
+                from .agent.oneshot import generate as run
+                res = run(prompt, out, model=setting.model, base_url=setting.base_url, max_cost_usd=max_cost,
+                          attempts=attempts, image=png, timeout_s=timeout, formats=fmts, progress=progress)
+                status, message, calls = res.status, res.message, res.attempts
+            else:
+                from .agent.staged import StagedOptions, generate_staged
+                opts = StagedOptions(plan=not no_plan, review=not no_review, feedback=not no_feedback,
+                                     refine=not no_refine, attempts=attempts, simulate=not no_simulate,
+                                     formats=fmts or None)
+                sres = generate_staged(prompt, out, model=setting.model, base_url=setting.base_url,
+                                       options=opts, image=png, max_cost_usd=max_cost, timeout_s=timeout,
+                                       resume=resume is not None,
+                                       progress=(lambda stage, text: progress(f"{stage}: {text}")))
+                status, message, calls = sres.status, sres.message, sres.state.step
     except ConfigError as exc:
         _err(str(exc))
         raise typer.Exit(EXIT_USAGE) from None
     except LLMError as exc:
-        _err(str(exc))
+        _err(f"{exc} (work kept in {out})")
         raise typer.Exit(EXIT_FAIL) from None
-    cost = (res.usage.get("total") or {}).get("cost_usd")
-    tail = f", cost ${cost:.4f}" if isinstance(cost, (int, float)) else ""
-    if res.status == "ok":
-        typer.echo(f"generated and built in {res.attempts} call(s) -> {out}{tail}")
+    if json_out and (out / "report.json").is_file():
+        typer.echo((out / "report.json").read_text(encoding="utf-8"), nl=False)
+    usage = _usage(out)
+    if status == "ok":
+        if not json_out:
+            typer.echo(f"generated and built in {calls} call(s) -> {out}{usage}")
         raise typer.Exit(EXIT_OK)
-    _err(f"generate {res.status} after {res.attempts} call(s): {res.message} (work kept in {out})")
+    _err(f"generate {status} after {calls} call(s): {message} (work kept in {out})")
+    raise typer.Exit(EXIT_FAIL)
+
+
+def _usage(out: Path) -> str:
+    """``, cost $x`` from the run's report (empty when unknown)."""
+    import json
+    try:
+        report = json.loads((out / "report.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return ""
+    cost = ((report.get("usage") or {}).get("total") or {}).get("cost_usd")
+    return f", cost ${cost:.4f}" if isinstance(cost, (int, float)) else ""
+
+
+@app.command()
+@guarded
+def revise(
+    run_dir: Annotated[Path, typer.Argument(help="A run directory (from build or generate).")],
+    instruction: Annotated[str, typer.Argument(help="The change, in words: \"make the wheels bigger\".")],
+    part: Annotated[Optional[list[str]], typer.Option("--part", help="Only this part may change "
+                                                                      "(repeat for several).")] = None,
+    model: Annotated[Optional[str], typer.Option("--model", "-m", help="provider:model (default: "
+                                                 "$PROCEDURA_BREP_MODEL, then the user config file)")] = None,
+    base_url: Annotated[Optional[str], typer.Option("--base-url")] = None,
+    max_edits: Annotated[int, typer.Option(min=1, max=20, help="Edits allowed.")] = 4,
+    no_simulate: Annotated[bool, typer.Option("--no-simulate", help="Skip the MuJoCo battery.")] = False,
+    json_out: Annotated[bool, typer.Option("--json", help="Print the revision report on stdout.")] = False,
+    quiet: QuietOption = False,
+) -> None:
+    """Apply a person's change request to a run directory through diagnosed, gated edits."""
+    import json
+    from .agent.revise import ReviseError, revise as run
+    from .llm import ConfigError, LLMError
+    from .llm.settings import resolve_model
+    setting = resolve_model(model, base_url)
+    if setting.model is None:
+        _err("no model: pass --model PROVIDER:MODEL, or set PROCEDURA_BREP_MODEL")
+        raise typer.Exit(EXIT_USAGE)
+    try:
+        with _progress(quiet) as progress:
+            res = run(run_dir, instruction, model=setting.model, base_url=setting.base_url, parts=part or None,
+                      max_edits=max_edits, simulate=not no_simulate,
+                      progress=lambda stage, text: progress(f"{stage}: {text}"))
+    except (ReviseError, ConfigError) as exc:
+        _err(str(exc))
+        raise typer.Exit(EXIT_USAGE) from None
+    except LLMError as exc:
+        _err(f"{exc} (the program in {run_dir} is unchanged unless an edit was applied)")
+        raise typer.Exit(EXIT_FAIL) from None
+    if json_out:
+        typer.echo(json.dumps(res.report, indent=2, ensure_ascii=False))
+    if res.status == "ok":
+        if not json_out:
+            typer.echo(f"revised {run_dir}: {res.report.get('edits', 0)} edit(s)")
+        raise typer.Exit(EXIT_OK)
+    _err(f"revise ended {res.status} after {res.report.get('edits', 0)} edit(s) (see {run_dir}/history)")
     raise typer.Exit(EXIT_FAIL)
 
 

@@ -61,6 +61,7 @@ class StagedOptions:
     max_parts: int = 60
     views: tuple[str, ...] | None = None  # build views (None: the 12 defaults)
     simulate: bool = True
+    formats: tuple[str, ...] | None = None  # exports of the final build (None: all)
 
 
 @dataclass
@@ -357,7 +358,8 @@ class StagedRun:
         if st.source:
             self.progress("finish", "building the run directory (exports, gates"
                           + (", battery)" if self.options.simulate else ")"))
-            build = self.tools.final_build(st.source, self.out_dir, simulate=self.options.simulate)
+            build = self.tools.final_build(st.source, self.out_dir, simulate=self.options.simulate,
+                                           formats=self.options.formats)
             result.build = build
             if status == "ok" and not build.ok:
                 result.status, result.message = "gates_failed", build.reason

@@ -92,10 +92,11 @@ class Tools:
                            ((n, _rgb255(c)) for n, c in legend_of(model)))
         return out, legend
 
-    def final_build(self, source: str, out_dir: Path, *, simulate: bool = True) -> Any:
+    def final_build(self, source: str, out_dir: Path, *, simulate: bool = True,
+                    formats: tuple[str, ...] | None = None) -> Any:
         """Build the run directory's models and reports from the final program."""
         from ..pipeline import build
-        return build(out_dir / "program.py", out_dir, source=source, simulate=simulate)
+        return build(out_dir / "program.py", out_dir, source=source, simulate=simulate, formats=formats)
 
 
 def _rgb255(c: Any) -> tuple[int, int, int]:
