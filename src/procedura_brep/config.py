@@ -56,6 +56,10 @@ class Tolerances:
         sweep_box_slack_mm: battery B2: slack added to the box prefilters of the sweep.
         nonconvex_ratio: exports: a mesh component whose convex hull volume exceeds its own
             volume by this factor is decomposed into convex collision pieces (CoACD).
+        normal_crease_deg: GLB vertex normals: two triangles sharing an edge are shaded smooth
+            across it when their normals differ by less than this (curved surfaces, whose
+            neighbouring triangles differ by at most ~``mesh_angular_rad``); sharper edges
+            (box edges, chamfers) split the vertex normals and stay crisp.
     """
 
     placement_mm: float = 1e-6
@@ -90,6 +94,7 @@ class Tolerances:
     sweep_rest_interference_mm: float = 1e-3
     sweep_box_slack_mm: float = 0.01
     nonconvex_ratio: float = 1.3
+    normal_crease_deg: float = 30.0
 
 
 @dataclass(frozen=True)
