@@ -25,8 +25,23 @@ class Tolerances:
         penetration_fill_box: mate gate: an interference solid filling at least this fraction
             of its mate-frame box is block-like (a gouge: depth = its smallest side); thinner
             ones are fit rings (depth = wall thickness 2V/A).
-        mesh_linear_mm: tessellation linear deflection for every shipped mesh (fixed).
+        mesh_linear_mm: tessellation linear deflection floor: every part is meshed with
+            ``max(mesh_linear_mm, mesh_linear_rel * diagonal of its bounding box)``.
+        mesh_linear_rel: linear deflection as a fraction of the part's bbox diagonal; parts up
+            to ``mesh_linear_mm / mesh_linear_rel`` (1 m) across get the 0.1 mm floor, larger
+            ones a deflection that grows with them, so a part's triangle count no longer grows
+            with its size (``Sphere(1e5)`` meshed at 0.1 mm needed 10 GB).
         mesh_angular_rad: tessellation angular deflection (fixed).
+        mesh_probe_factor: before meshing, a probe mesh with ``k`` times the linear and
+            ``sqrt(k)`` times the angular deflection is counted; ``k`` times its triangles
+            bounds the real count for doubly curved faces (segments per direction scale with
+            ``sqrt(k)`` in both regimes) and overestimates planar and singly curved ones.
+        mesh_max_triangles: a part whose estimated (or actual) triangle count exceeds this is
+            refused with an error naming the part and the figure instead of being meshed.
+        sim_mesh_max_faces: meshes handed to MuJoCo (URDF/MJCF visual and collision STL) have
+            at most this many triangles: MuJoCo's STL decoder refuses more than 200,000 faces.
+        sim_mesh_coarsen: a part over ``sim_mesh_max_faces`` is re-tessellated for MuJoCo with
+            its linear deflection multiplied by this (angular by its square root) until it fits.
         mesh_weld_mm: vertices closer than this are welded before topology is counted.
         degenerate_area_mm2: triangles with less area are dropped (OCCT poles, fillet corners).
         span_tau: connectivity gate threshold on rho = span(component) / span(model).
@@ -71,7 +86,12 @@ class Tolerances:
     bearing_angle_deg: float = 30.0
     penetration_fill_box: float = 0.5
     mesh_linear_mm: float = 0.1
+    mesh_linear_rel: float = 1e-4
     mesh_angular_rad: float = 0.35
+    mesh_probe_factor: float = 9.0
+    mesh_max_triangles: int = 2_000_000
+    sim_mesh_max_faces: int = 200_000
+    sim_mesh_coarsen: float = 2.0
     mesh_weld_mm: float = 1e-5
     degenerate_area_mm2: float = 1e-10
     span_tau: float = 0.01

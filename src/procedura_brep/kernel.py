@@ -131,22 +131,97 @@ class Mesh:
     faces: np.ndarray
 
 
-def tessellate(shape, *, linear: float = TOL.mesh_linear_mm, angular: float = TOL.mesh_angular_rad,
-               parallel: bool = False) -> Mesh:
-    """Mesh ``shape`` with fixed settings; vertices are in the shape's located (world) frame.
+class MeshTooLargeError(KernelError):
+    """Meshing a shape would exceed ``TOL.mesh_max_triangles`` (raised before it is meshed)."""
 
-    Degenerate (zero-area) triangles are dropped and coincident vertices welded, so component
-    counts are topological. ``parallel`` stays False in any process that may later fork.
+
+#: Most angular deflection a probe mesh may use (OCCT accepts up to ~pi/2 meaningfully).
+_MAX_PROBE_ANGULAR = 1.5
+
+
+def mesh_deflection(shape) -> float:
+    """The linear deflection (mm) the size rule gives ``shape``:
+    ``max(TOL.mesh_linear_mm, TOL.mesh_linear_rel * bbox diagonal)``."""
+    lo, hi = bbox(shape, optimal=False)
+    diag = float(np.linalg.norm(np.subtract(hi, lo)))
+    if not np.isfinite(diag):
+        diag = 0.0
+    return max(TOL.mesh_linear_mm, TOL.mesh_linear_rel * diag)
+
+
+def _face(TopoDS, shape):
+    """``shape`` downcast to a face (OCP spells the cast ``Face`` or ``Face_s``)."""
+    return TopoDS.TopoDS.Face(shape) if hasattr(TopoDS.TopoDS, "Face") else TopoDS.TopoDS.Face_s(shape)
+
+
+def _mesh(shape, linear: float, angular: float, parallel: bool) -> int:
+    """Mesh ``shape`` afresh (old triangulations removed); the raw triangle count."""
+    o = _ocp()
+    from OCP.BRepTools import BRepTools
+    BRepTools.Clean_s(shape)
+    try:
+        o["BRepMesh"].BRepMesh_IncrementalMesh(shape, linear, False, angular, parallel)
+    except Exception as exc:  # OCCT raises Standard_Failure subclasses
+        raise KernelError(f"meshing failed: {exc}") from exc
+    count = 0
+    TopAbs, TopExp, TopoDS = o["TopAbs"], o["TopExp"], o["TopoDS"]
+    exp = TopExp.TopExp_Explorer(shape, TopAbs.TopAbs_FACE)
+    while exp.More():
+        tri = o["BRep"].BRep_Tool.Triangulation_s(_face(TopoDS, exp.Current()),
+                                                   o["TopLoc"].TopLoc_Location())
+        exp.Next()
+        if tri is not None:
+            count += tri.NbTriangles()
+    return count
+
+
+def estimate_triangles(shape, *, linear: float, angular: float = TOL.mesh_angular_rad) -> int:
+    """An upper estimate of the triangles :func:`tessellate` makes at these settings, from a
+    probe mesh ``TOL.mesh_probe_factor`` times coarser (see ``config.TOL``)."""
+    k = TOL.mesh_probe_factor
+    probe = _mesh(shape, linear * k, min(angular * k ** 0.5, _MAX_PROBE_ANGULAR), False)
+    return int(probe * k)
+
+
+def tessellate(shape, *, linear: float | None = None, angular: float = TOL.mesh_angular_rad,
+               parallel: bool = False, name: str = "shape",
+               max_triangles: int | None = None) -> Mesh:
+    """Mesh ``shape``; vertices are in the shape's located (world) frame.
+
+    ``linear`` defaults to the size rule :func:`mesh_deflection` (0.1 mm up to parts 1 m
+    across, 1e-4 of the bbox diagonal beyond). The triangle count is estimated first
+    (:func:`estimate_triangles`) and a shape over ``max_triangles`` (default
+    ``TOL.mesh_max_triangles``) is refused before the real mesh is built. Degenerate
+    (zero-area) triangles are dropped and coincident vertices welded, so component counts are
+    topological. ``parallel`` stays False in any process that may later fork.
+
+    Raises:
+        MeshTooLargeError: the estimated or actual count exceeds the cap; the message names
+            ``name``, the figure, the cap and the deflection used.
     """
     o = _ocp()
     BRep, TopAbs, TopExp, TopoDS = o["BRep"], o["TopAbs"], o["TopExp"], o["TopoDS"]
-    o["BRepMesh"].BRepMesh_IncrementalMesh(shape, linear, False, angular, parallel)
+    lin = mesh_deflection(shape) if linear is None else float(linear)
+    cap = TOL.mesh_max_triangles if max_triangles is None else max_triangles
+
+    def refuse(count: int, how: str) -> MeshTooLargeError:
+        return MeshTooLargeError(
+            f"part {name}: its mesh would have {count:,} triangles ({how}) at {lin:.3g} mm "
+            f"deflection, over the cap of {cap:,} (TOL.mesh_max_triangles); simplify the part "
+            f"(fewer or larger curved features)")
+
+    estimate = estimate_triangles(shape, linear=lin, angular=angular)
+    if estimate > cap:
+        raise refuse(estimate, "estimated from a coarse probe")
+    count = _mesh(shape, lin, angular, parallel)
+    if count > cap:
+        raise refuse(count, "counted")
     verts: list[np.ndarray] = []
     tris: list[np.ndarray] = []
     offset = 0
     exp = TopExp.TopExp_Explorer(shape, TopAbs.TopAbs_FACE)
     while exp.More():
-        face = TopoDS.TopoDS.Face(exp.Current()) if hasattr(TopoDS.TopoDS, "Face") else TopoDS.TopoDS.Face_s(exp.Current())
+        face = _face(TopoDS, exp.Current())
         loc = o["TopLoc"].TopLoc_Location()
         tri = BRep.BRep_Tool.Triangulation_s(face, loc)
         exp.Next()

@@ -1,10 +1,12 @@
 """Shared meshes for every exporter: exact visual tessellation and convex collision pieces.
 
-Visual meshes come from :func:`procedura_brep.kernel.tessellate` (serial mesher, fixed settings)
-and are cached by part digest, so every format in a bundle writes the same triangles. Collision
-geometry is a set of convex pieces per part: the convex hull of each connected component of the
-tessellation, or, when ``coacd`` is installed and a component is clearly non-convex, a capped
-CoACD decomposition (see :data:`COACD_MAX_HULLS`).
+Visual meshes come from :func:`procedura_brep.kernel.tessellate` (serial mesher, deflection
+scaled with the part's size) and are cached by part digest, so every format in a bundle writes
+the same triangles. Meshes handed to MuJoCo (URDF/MJCF STL files) go through :func:`sim_mesh`,
+which keeps them under MuJoCo's STL limit (``TOL.sim_mesh_max_faces``) by re-tessellating a part
+coarser when needed. Collision geometry is a set of convex pieces per part, from the MuJoCo mesh:
+the convex hull of each connected component, or, when ``coacd`` is installed and a component is
+clearly non-convex, a capped CoACD decomposition (see :data:`COACD_MAX_HULLS`).
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import logging
 import numpy as np
 
 from ..config import TOL
+from ..errors import KernelError
 from ..kernel import Mesh
 from ..program.model import CompiledPart
 
@@ -26,12 +29,57 @@ COACD_THRESHOLD = 0.08
 #: Components with fewer triangles than this are skipped in collision (slivers).
 MIN_COMPONENT_FACES = 4
 
+#: At most this many coarsening steps (each ``TOL.sim_mesh_coarsen`` x the deflection) for MuJoCo.
+SIM_MAX_COARSEN_STEPS = 12
+#: Largest angular deflection a coarsened MuJoCo mesh uses, rad.
+SIM_MAX_ANGULAR_RAD = 1.5
+
 _COLLISION: dict[str, list[Mesh]] = {}
+_SIM: dict[str, Mesh] = {}
 
 
 def part_mesh(part: CompiledPart) -> Mesh:
     """The part's exact visual mesh in WORLD coordinates, mm (cached by digest)."""
     return part.mesh()
+
+
+def sim_mesh(part: CompiledPart) -> Mesh:
+    """The part's mesh for MuJoCo (world mm, cached by digest): the exact mesh when it has at
+    most ``TOL.sim_mesh_max_faces`` triangles, else the part re-tessellated with its linear
+    deflection multiplied by ``TOL.sim_mesh_coarsen`` (angular by its square root) until it
+    fits.
+
+    Raises:
+        KernelError: the part still has too many triangles after
+            :data:`SIM_MAX_COARSEN_STEPS` steps (many flat features: coarser meshing cannot
+            help); the message names the part and the figure.
+    """
+    key = part.digest
+    hit = _SIM.get(key)
+    if hit is not None:
+        return hit
+    mesh = part_mesh(part)
+    cap = TOL.sim_mesh_max_faces
+    if len(mesh.faces) > cap:
+        from .. import kernel
+        exact = len(mesh.faces)
+        shape = part.shape()
+        linear, angular = kernel.mesh_deflection(shape), TOL.mesh_angular_rad
+        for _ in range(SIM_MAX_COARSEN_STEPS):
+            linear *= TOL.sim_mesh_coarsen
+            angular = min(angular * TOL.sim_mesh_coarsen ** 0.5, SIM_MAX_ANGULAR_RAD)
+            mesh = kernel.tessellate(shape, linear=linear, angular=angular, name=part.name)
+            if len(mesh.faces) <= cap:
+                break
+        else:
+            raise KernelError(
+                f"part {part.name}: its MuJoCo mesh still has {len(mesh.faces):,} triangles at "
+                f"{linear:.3g} mm deflection, over MuJoCo's limit of {cap:,} "
+                f"(TOL.sim_mesh_max_faces); simplify the part")
+        log.info("part %s: %d triangles for MuJoCo (exact mesh %d) at %.3g mm deflection",
+                 part.name, len(mesh.faces), exact, linear)
+    _SIM[key] = mesh
+    return mesh
 
 
 def transform(mesh: Mesh, matrix: np.ndarray, *, scale: float = 1.0) -> Mesh:
@@ -88,7 +136,7 @@ def collision_pieces(part: CompiledPart) -> list[Mesh]:
         return _COLLISION[key]
     import trimesh
     pieces: list[Mesh] = []
-    for comp in _components(part_mesh(part)):
+    for comp in _components(sim_mesh(part)):
         hull = _hull(comp)
         if hull is None:
             continue
@@ -177,3 +225,4 @@ def clear_cache() -> None:
     from ..program.model import clear_mesh_cache
     clear_mesh_cache()
     _COLLISION.clear()
+    _SIM.clear()
