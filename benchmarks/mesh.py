@@ -1,4 +1,4 @@
-"""Benchmark: tessellation of the rover's parts (with the triangle-estimate probe) and of the
+"""Benchmark: tessellation of the rover's parts (and the B-rep triangle estimate) and of the
 three oversized parts of issue 10 (Sphere(1e5), Sphere(3000), Cylinder(1e6, 1)).
 
 Run: python benchmarks/mesh.py   (prints figures; no assertions)
@@ -28,19 +28,12 @@ def main() -> None:
     model = compile_source((ROOT / "rover" / "program.py").read_text(), name="rover",
                            worker=default_worker())
     shapes = [p.shape() for p in model.parts]
-    for label, probe in (("probe + mesh", True), ("mesh only", False)):
-        t = time.perf_counter()
-        n = 0
-        for s in shapes:
-            if probe:
-                n = len(kernel.tessellate(s).faces) + n
-            else:
-                n += kernel._mesh(s, kernel.mesh_deflection(s), kernel.TOL.mesh_angular_rad, False)
-        print(f"rover, {len(shapes)} parts, {label}: {n} triangles, {time.perf_counter() - t:.2f} s")
     t = time.perf_counter()
-    for s in shapes:
-        kernel.estimate_triangles(s, linear=kernel.mesh_deflection(s))
-    print(f"rover, probes alone: {time.perf_counter() - t:.2f} s")
+    n = sum(len(kernel.tessellate(s).faces) for s in shapes)
+    print(f"rover, {len(shapes)} parts: {n} triangles, tessellate {time.perf_counter() - t:.2f} s")
+    t = time.perf_counter()
+    est = sum(kernel.estimate_triangles(s, linear=kernel.mesh_deflection(s)) for s in shapes)
+    print(f"rover: B-rep estimate {est} triangles, {time.perf_counter() - t:.2f} s")
 
 
 if __name__ == "__main__":

@@ -32,11 +32,8 @@ class Tolerances:
             ones a deflection that grows with them, so a part's triangle count no longer grows
             with its size (``Sphere(1e5)`` meshed at 0.1 mm needed 10 GB).
         mesh_angular_rad: tessellation angular deflection (fixed).
-        mesh_probe_factor: before meshing, a probe mesh with ``k`` times the linear and
-            ``sqrt(k)`` times the angular deflection is counted; ``k`` times its triangles
-            bounds the real count for doubly curved faces (segments per direction scale with
-            ``sqrt(k)`` in both regimes) and overestimates planar and singly curved ones.
-        mesh_max_triangles: a part whose estimated (or actual) triangle count exceeds this is
+        mesh_max_triangles: a part whose triangle count, estimated from its B-rep before
+            meshing (:mod:`procedura_brep.mesh_budget`) or counted after, exceeds this is
             refused with an error naming the part and the figure instead of being meshed.
         sim_mesh_max_faces: meshes handed to MuJoCo (URDF/MJCF visual and collision STL) have
             at most this many triangles: MuJoCo's STL decoder refuses more than 200,000 faces.
@@ -88,7 +85,6 @@ class Tolerances:
     mesh_linear_mm: float = 0.1
     mesh_linear_rel: float = 1e-4
     mesh_angular_rad: float = 0.35
-    mesh_probe_factor: float = 9.0
     mesh_max_triangles: int = 2_000_000
     sim_mesh_max_faces: int = 200_000
     sim_mesh_coarsen: float = 2.0

@@ -135,10 +135,6 @@ class MeshTooLargeError(KernelError):
     """Meshing a shape would exceed ``TOL.mesh_max_triangles`` (raised before it is meshed)."""
 
 
-#: Most angular deflection a probe mesh may use (OCCT accepts up to ~pi/2 meaningfully).
-_MAX_PROBE_ANGULAR = 1.5
-
-
 def mesh_deflection(shape) -> float:
     """The linear deflection (mm) the size rule gives ``shape``:
     ``max(TOL.mesh_linear_mm, TOL.mesh_linear_rel * bbox diagonal)``."""
@@ -176,11 +172,13 @@ def _mesh(shape, linear: float, angular: float, parallel: bool) -> int:
 
 
 def estimate_triangles(shape, *, linear: float, angular: float = TOL.mesh_angular_rad) -> int:
-    """An upper estimate of the triangles :func:`tessellate` makes at these settings, from a
-    probe mesh ``TOL.mesh_probe_factor`` times coarser (see ``config.TOL``)."""
-    k = TOL.mesh_probe_factor
-    probe = _mesh(shape, linear * k, min(angular * k ** 0.5, _MAX_PROBE_ANGULAR), False)
-    return int(probe * k)
+    """An estimate of the triangles :func:`tessellate` makes at these settings, read from the
+    B-rep without meshing (:mod:`procedura_brep.mesh_budget`)."""
+    from .mesh_budget import estimate_triangles as estimate
+    try:
+        return estimate(shape, linear=linear, angular=angular)
+    except Exception as exc:  # OCCT raises Standard_Failure subclasses
+        raise KernelError(f"estimating the mesh size failed: {exc}") from exc
 
 
 def tessellate(shape, *, linear: float | None = None, angular: float = TOL.mesh_angular_rad,
@@ -212,7 +210,7 @@ def tessellate(shape, *, linear: float | None = None, angular: float = TOL.mesh_
 
     estimate = estimate_triangles(shape, linear=lin, angular=angular)
     if estimate > cap:
-        raise refuse(estimate, "estimated from a coarse probe")
+        raise refuse(estimate, "estimated from its geometry")
     count = _mesh(shape, lin, angular, parallel)
     if count > cap:
         raise refuse(count, "counted")

@@ -67,11 +67,32 @@ def test_small_parts_keep_the_fixed_deflection() -> None:
 
 
 def test_estimate_bounds_the_count() -> None:
+    """The B-rep estimate (no meshing) is within [0.9, 4] x OCCT's real count."""
     import build123d as bd
-    for shape in (bd.Sphere(50).wrapped, bd.Torus(40, 5).wrapped, bd.Cylinder(20, 80).wrapped):
-        lin = kernel.mesh_deflection(shape)
-        est = kernel.estimate_triangles(shape, linear=lin)
-        assert est >= 0.9 * len(kernel.tessellate(shape).faces)
+    shapes = [bd.Sphere(50), bd.Torus(40, 5), bd.Cylinder(20, 80), bd.Cone(20, 5, 40),
+              bd.fillet(bd.Box(50, 40, 30).edges(), 4),
+              bd.Box(100, 100, 5) - [bd.Pos(x, y, 0) * bd.Cylinder(2, 10)
+                                     for x in range(-40, 41, 10) for y in range(-40, 41, 10)],
+              bd.loft([bd.Circle(20).face(), bd.Pos(0, 0, 50) * bd.Rectangle(30, 10).face(),
+                       bd.Pos(0, 0, 90) * bd.Circle(5).face()]),
+              bd.sweep(bd.Pos(20, 0, 0) * (bd.Plane.XZ * bd.Circle(1.5)), bd.Helix(6, 60, 20),
+                       is_frenet=True)]
+    for s in shapes:
+        shape = s.wrapped
+        est = kernel.estimate_triangles(shape, linear=kernel.mesh_deflection(shape))
+        real = len(kernel.tessellate(shape).faces)
+        assert 0.9 * real <= est <= 4 * real, (type(s).__name__, est, real)
+
+
+def test_explosive_mesh_refused_before_meshing() -> None:
+    """Sphere(1e5) at a fixed 0.1 mm (what grew the parent to 10.4 GB) is refused from its
+    geometry alone, in milliseconds."""
+    import build123d as bd
+    shape = bd.Sphere(1e5).wrapped
+    t = time.perf_counter()
+    with pytest.raises(kernel.MeshTooLargeError, match="part huge: .*estimated from its geometry"):
+        kernel.tessellate(shape, linear=0.1, name="huge")
+    assert time.perf_counter() - t < 5.0
 
 
 def test_cap_is_a_clear_error() -> None:
