@@ -138,8 +138,15 @@ class MeshTooLargeError(KernelError):
 def mesh_deflection(shape) -> float:
     """The linear deflection (mm) the size rule gives ``shape``:
     ``max(TOL.mesh_linear_mm, TOL.mesh_linear_rel * bbox diagonal)``."""
-    lo, hi = bbox(shape, optimal=False)
-    diag = float(np.linalg.norm(np.subtract(hi, lo)))
+    o = _ocp()
+    box = o["Bnd"].Bnd_Box()
+    # from the geometry, never from an existing triangulation: the same shape always gets the
+    # same deflection, meshed before or not
+    o["BRepBndLib"].BRepBndLib.Add_s(shape, box, False)
+    if box.IsVoid():
+        return TOL.mesh_linear_mm
+    lo, hi = box.CornerMin(), box.CornerMax()
+    diag = float(np.linalg.norm([hi.X() - lo.X(), hi.Y() - lo.Y(), hi.Z() - lo.Z()]))
     if not np.isfinite(diag):
         diag = 0.0
     return max(TOL.mesh_linear_mm, TOL.mesh_linear_rel * diag)
