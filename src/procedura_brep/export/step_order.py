@@ -15,14 +15,19 @@ sorted by the entity numbers of the geometry they style, which come before the t
 fixed by the part order; the tail is then laid out again depth-first from the roots, following
 references in field order, renumbered consecutively from where it started, and each record is
 re-wrapped deterministically. Only numbers inside the tail change, so every reference stays
-valid; the test re-reads the file through XCAF (names and colours).
+valid; the test re-reads the file through XCAF (names and colours). OCCT adds each part's
+presentation root first, so the tail begins with a presentation entity; a file that breaks
+these assumptions (a later OCCT) is left as written, with a warning.
 """
 
 from __future__ import annotations
 
+import logging
 import re
 
 from ..errors import KernelError
+
+log = logging.getLogger(__name__)
 
 #: Record types that open the presentation (colour) section OCCT appends after the geometry.
 PRESENTATION_TYPES: tuple[str, ...] = (
@@ -113,12 +118,20 @@ def _wrap(line: str) -> str:
 def canonical_step(text: str) -> str:
     """``text`` (a STEP file written by OCCT) with its presentation section in canonical order.
 
-    Files without a presentation section come back unchanged.
-
-    Raises:
-        KernelError: the file has no DATA section, or its presentation section is not a
-            self-contained tail (something before it refers into it), so no order was imposed.
+    Files without a presentation section come back unchanged; so does a file whose layout
+    breaks the rule's assumptions (no DATA section, a presentation section that geometry refers
+    into, a reference cycle), with a warning: the file is valid, only not reproducible.
     """
+    try:
+        return _canonical(text)
+    except KernelError as exc:
+        log.warning("STEP colour section left in OCCT's order (bytes may differ between "
+                    "processes): %s", exc)
+        return text
+
+
+def _canonical(text: str) -> str:
+    """:func:`canonical_step`, raising :class:`KernelError` where it cannot apply the rule."""
     begin = text.find("\nDATA;\n")
     end = text.rfind("ENDSEC;")
     if begin < 0 or end < begin:
