@@ -218,9 +218,7 @@ def tessellate(shape, *, linear: float | None = None, angular: float = TOL.mesh_
     estimate = estimate_triangles(shape, linear=lin, angular=angular)
     if estimate > cap:
         raise refuse(estimate, "estimated from its geometry")
-    count = _mesh(shape, lin, angular, parallel)
-    if count > cap:
-        raise refuse(count, "counted")
+    _mesh(shape, lin, angular, parallel)
     verts: list[np.ndarray] = []
     tris: list[np.ndarray] = []
     offset = 0
@@ -248,7 +246,10 @@ def tessellate(shape, *, linear: float | None = None, angular: float = TOL.mesh_
         offset += n
     if not verts:
         return Mesh(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64))
-    return clean_mesh(np.vstack(verts), np.vstack(tris))
+    mesh = clean_mesh(np.vstack(verts), np.vstack(tris))
+    if len(mesh.faces) > cap:  # counted after OCCT's zero-area triangles are dropped
+        raise refuse(len(mesh.faces), "counted")
+    return mesh
 
 
 def clean_mesh(vertices: np.ndarray, faces: np.ndarray, *, weld: float = TOL.mesh_weld_mm,

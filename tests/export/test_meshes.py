@@ -105,6 +105,18 @@ def test_cap_is_a_clear_error() -> None:
         kernel.tessellate(bd.Sphere(10).wrapped, name="ball", max_triangles=100)
 
 
+def test_cap_counts_after_degenerate_triangles_are_dropped(monkeypatch) -> None:
+    """Past the estimate, the cap applies to the cleaned mesh (zero-area triangles dropped)."""
+    import build123d as bd
+    from procedura_brep import mesh_budget
+    shape = bd.Sphere(10).wrapped
+    clean = len(kernel.tessellate(shape).faces)
+    monkeypatch.setattr(mesh_budget, "estimate_triangles", lambda *a, **k: 0)
+    assert len(kernel.tessellate(shape, max_triangles=clean).faces) == clean
+    with pytest.raises(kernel.MeshTooLargeError, match=r"\(counted\)"):
+        kernel.tessellate(shape, max_triangles=clean - 1, name="s")
+
+
 def test_part_mesh_error_names_the_part(monkeypatch) -> None:
     import build123d as bd
     monkeypatch.setattr(kernel, "TOL", dataclasses.replace(TOL, mesh_max_triangles=200))
