@@ -25,8 +25,20 @@ class Tolerances:
         penetration_fill_box: mate gate: an interference solid filling at least this fraction
             of its mate-frame box is block-like (a gouge: depth = its smallest side); thinner
             ones are fit rings (depth = wall thickness 2V/A).
-        mesh_linear_mm: tessellation linear deflection for every shipped mesh (fixed).
+        mesh_linear_mm: tessellation linear deflection floor: every part is meshed with
+            ``max(mesh_linear_mm, mesh_linear_rel * diagonal of its bounding box)``.
+        mesh_linear_rel: linear deflection as a fraction of the part's bbox diagonal; parts up
+            to ``mesh_linear_mm / mesh_linear_rel`` (1 m) across get the 0.1 mm floor, larger
+            ones a deflection that grows with them, so a part's triangle count no longer grows
+            with its size (``Sphere(1e5)`` meshed at 0.1 mm needed 10 GB).
         mesh_angular_rad: tessellation angular deflection (fixed).
+        mesh_max_triangles: a part whose triangle count, estimated from its B-rep before
+            meshing (:mod:`procedura_brep.mesh_budget`) or counted after, exceeds this is
+            refused with an error naming the part and the figure instead of being meshed.
+        sim_mesh_max_faces: meshes handed to MuJoCo (URDF/MJCF visual and collision STL) have
+            at most this many triangles: MuJoCo's STL decoder refuses more than 200,000 faces.
+        sim_mesh_coarsen: a part over ``sim_mesh_max_faces`` is re-tessellated for MuJoCo with
+            its linear deflection multiplied by this (angular by its square root) until it fits.
         mesh_weld_mm: vertices closer than this are welded before topology is counted.
         degenerate_area_mm2: triangles with less area are dropped (OCCT poles, fillet corners).
         span_tau: connectivity gate threshold on rho = span(component) / span(model).
@@ -56,6 +68,10 @@ class Tolerances:
         sweep_box_slack_mm: battery B2: slack added to the box prefilters of the sweep.
         nonconvex_ratio: exports: a mesh component whose convex hull volume exceeds its own
             volume by this factor is decomposed into convex collision pieces (CoACD).
+        normal_crease_deg: GLB vertex normals: two triangles sharing an edge are shaded smooth
+            across it when their normals differ by less than this (curved surfaces, whose
+            neighbouring triangles differ by at most ~``mesh_angular_rad``); sharper edges
+            (box edges, chamfers) split the vertex normals and stay crisp.
     """
 
     placement_mm: float = 1e-6
@@ -67,7 +83,11 @@ class Tolerances:
     bearing_angle_deg: float = 30.0
     penetration_fill_box: float = 0.5
     mesh_linear_mm: float = 0.1
+    mesh_linear_rel: float = 1e-4
     mesh_angular_rad: float = 0.35
+    mesh_max_triangles: int = 2_000_000
+    sim_mesh_max_faces: int = 200_000
+    sim_mesh_coarsen: float = 2.0
     mesh_weld_mm: float = 1e-5
     degenerate_area_mm2: float = 1e-10
     span_tau: float = 0.01
@@ -90,6 +110,7 @@ class Tolerances:
     sweep_rest_interference_mm: float = 1e-3
     sweep_box_slack_mm: float = 0.01
     nonconvex_ratio: float = 1.3
+    normal_crease_deg: float = 30.0
 
 
 @dataclass(frozen=True)

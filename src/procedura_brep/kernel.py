@@ -131,22 +131,100 @@ class Mesh:
     faces: np.ndarray
 
 
-def tessellate(shape, *, linear: float = TOL.mesh_linear_mm, angular: float = TOL.mesh_angular_rad,
-               parallel: bool = False) -> Mesh:
-    """Mesh ``shape`` with fixed settings; vertices are in the shape's located (world) frame.
+class MeshTooLargeError(KernelError):
+    """Meshing a shape would exceed ``TOL.mesh_max_triangles`` (raised before it is meshed)."""
 
-    Degenerate (zero-area) triangles are dropped and coincident vertices welded, so component
-    counts are topological. ``parallel`` stays False in any process that may later fork.
+
+def mesh_deflection(shape) -> float:
+    """The linear deflection (mm) the size rule gives ``shape``:
+    ``max(TOL.mesh_linear_mm, TOL.mesh_linear_rel * bbox diagonal)``."""
+    o = _ocp()
+    box = o["Bnd"].Bnd_Box()
+    # from the geometry, never from an existing triangulation: the same shape always gets the
+    # same deflection, meshed before or not
+    o["BRepBndLib"].BRepBndLib.Add_s(shape, box, False)
+    if box.IsVoid():
+        return TOL.mesh_linear_mm
+    lo, hi = box.CornerMin(), box.CornerMax()
+    diag = float(np.linalg.norm([hi.X() - lo.X(), hi.Y() - lo.Y(), hi.Z() - lo.Z()]))
+    if not np.isfinite(diag):
+        diag = 0.0
+    return max(TOL.mesh_linear_mm, TOL.mesh_linear_rel * diag)
+
+
+def _face(TopoDS, shape):
+    """``shape`` downcast to a face (OCP spells the cast ``Face`` or ``Face_s``)."""
+    return TopoDS.TopoDS.Face(shape) if hasattr(TopoDS.TopoDS, "Face") else TopoDS.TopoDS.Face_s(shape)
+
+
+def _mesh(shape, linear: float, angular: float, parallel: bool) -> int:
+    """Mesh ``shape`` afresh (old triangulations removed); the raw triangle count."""
+    o = _ocp()
+    from OCP.BRepTools import BRepTools
+    BRepTools.Clean_s(shape)
+    try:
+        o["BRepMesh"].BRepMesh_IncrementalMesh(shape, linear, False, angular, parallel)
+    except Exception as exc:  # OCCT raises Standard_Failure subclasses
+        raise KernelError(f"meshing failed: {exc}") from exc
+    count = 0
+    TopAbs, TopExp, TopoDS = o["TopAbs"], o["TopExp"], o["TopoDS"]
+    exp = TopExp.TopExp_Explorer(shape, TopAbs.TopAbs_FACE)
+    while exp.More():
+        tri = o["BRep"].BRep_Tool.Triangulation_s(_face(TopoDS, exp.Current()),
+                                                   o["TopLoc"].TopLoc_Location())
+        exp.Next()
+        if tri is not None:
+            count += tri.NbTriangles()
+    return count
+
+
+def estimate_triangles(shape, *, linear: float, angular: float = TOL.mesh_angular_rad) -> int:
+    """An estimate of the triangles :func:`tessellate` makes at these settings, read from the
+    B-rep without meshing (:mod:`procedura_brep.mesh_budget`)."""
+    from .mesh_budget import estimate_triangles as estimate
+    try:
+        return estimate(shape, linear=linear, angular=angular)
+    except Exception as exc:  # OCCT raises Standard_Failure subclasses
+        raise KernelError(f"estimating the mesh size failed: {exc}") from exc
+
+
+def tessellate(shape, *, linear: float | None = None, angular: float = TOL.mesh_angular_rad,
+               parallel: bool = False, name: str = "shape",
+               max_triangles: int | None = None) -> Mesh:
+    """Mesh ``shape``; vertices are in the shape's located (world) frame.
+
+    ``linear`` defaults to the size rule :func:`mesh_deflection` (0.1 mm up to parts 1 m
+    across, 1e-4 of the bbox diagonal beyond). The triangle count is estimated first
+    (:func:`estimate_triangles`) and a shape over ``max_triangles`` (default
+    ``TOL.mesh_max_triangles``) is refused before the real mesh is built. Degenerate
+    (zero-area) triangles are dropped and coincident vertices welded, so component counts are
+    topological. ``parallel`` stays False in any process that may later fork.
+
+    Raises:
+        MeshTooLargeError: the estimated or actual count exceeds the cap; the message names
+            ``name``, the figure, the cap and the deflection used.
     """
     o = _ocp()
     BRep, TopAbs, TopExp, TopoDS = o["BRep"], o["TopAbs"], o["TopExp"], o["TopoDS"]
-    o["BRepMesh"].BRepMesh_IncrementalMesh(shape, linear, False, angular, parallel)
+    lin = mesh_deflection(shape) if linear is None else float(linear)
+    cap = TOL.mesh_max_triangles if max_triangles is None else max_triangles
+
+    def refuse(count: int, how: str) -> MeshTooLargeError:
+        return MeshTooLargeError(
+            f"part {name}: its mesh would have {count:,} triangles ({how}) at {lin:.3g} mm "
+            f"deflection, over the cap of {cap:,} (TOL.mesh_max_triangles); simplify the part "
+            f"(fewer or larger curved features)")
+
+    estimate = estimate_triangles(shape, linear=lin, angular=angular)
+    if estimate > cap:
+        raise refuse(estimate, "estimated from its geometry")
+    _mesh(shape, lin, angular, parallel)
     verts: list[np.ndarray] = []
     tris: list[np.ndarray] = []
     offset = 0
     exp = TopExp.TopExp_Explorer(shape, TopAbs.TopAbs_FACE)
     while exp.More():
-        face = TopoDS.TopoDS.Face(exp.Current()) if hasattr(TopoDS.TopoDS, "Face") else TopoDS.TopoDS.Face_s(exp.Current())
+        face = _face(TopoDS, exp.Current())
         loc = o["TopLoc"].TopLoc_Location()
         tri = BRep.BRep_Tool.Triangulation_s(face, loc)
         exp.Next()
@@ -168,7 +246,10 @@ def tessellate(shape, *, linear: float = TOL.mesh_linear_mm, angular: float = TO
         offset += n
     if not verts:
         return Mesh(np.zeros((0, 3)), np.zeros((0, 3), dtype=np.int64))
-    return clean_mesh(np.vstack(verts), np.vstack(tris))
+    mesh = clean_mesh(np.vstack(verts), np.vstack(tris))
+    if len(mesh.faces) > cap:  # counted after OCCT's zero-area triangles are dropped
+        raise refuse(len(mesh.faces), "counted")
+    return mesh
 
 
 def clean_mesh(vertices: np.ndarray, faces: np.ndarray, *, weld: float = TOL.mesh_weld_mm,

@@ -1,10 +1,12 @@
 """Shared meshes for every exporter: exact visual tessellation and convex collision pieces.
 
-Visual meshes come from :func:`procedura_brep.kernel.tessellate` (serial mesher, fixed settings)
-and are cached by part digest, so every format in a bundle writes the same triangles. Collision
-geometry is a set of convex pieces per part: the convex hull of each connected component of the
-tessellation, or, when ``coacd`` is installed and a component is clearly non-convex, a capped
-CoACD decomposition (see :data:`COACD_MAX_HULLS`).
+Visual meshes come from :func:`procedura_brep.kernel.tessellate` (serial mesher, deflection
+scaled with the part's size) and are cached by part digest, so every format in a bundle writes
+the same triangles. Meshes handed to MuJoCo (URDF/MJCF STL files) go through :func:`sim_mesh`,
+which keeps them under MuJoCo's STL limit (``TOL.sim_mesh_max_faces``) by re-tessellating a part
+coarser when needed. Collision geometry is a set of convex pieces per part, from the MuJoCo mesh:
+the convex hull of each connected component, or, when ``coacd`` is installed and a component is
+clearly non-convex, a capped CoACD decomposition (see :data:`COACD_MAX_HULLS`).
 """
 
 from __future__ import annotations
@@ -14,6 +16,7 @@ import logging
 import numpy as np
 
 from ..config import TOL
+from ..errors import KernelError
 from ..kernel import Mesh
 from ..program.model import CompiledPart
 
@@ -26,12 +29,57 @@ COACD_THRESHOLD = 0.08
 #: Components with fewer triangles than this are skipped in collision (slivers).
 MIN_COMPONENT_FACES = 4
 
+#: At most this many coarsening steps (each ``TOL.sim_mesh_coarsen`` x the deflection) for MuJoCo.
+SIM_MAX_COARSEN_STEPS = 12
+#: Largest angular deflection a coarsened MuJoCo mesh uses, rad.
+SIM_MAX_ANGULAR_RAD = 1.5
+
 _COLLISION: dict[str, list[Mesh]] = {}
+_SIM: dict[str, Mesh] = {}
 
 
 def part_mesh(part: CompiledPart) -> Mesh:
     """The part's exact visual mesh in WORLD coordinates, mm (cached by digest)."""
     return part.mesh()
+
+
+def sim_mesh(part: CompiledPart) -> Mesh:
+    """The part's mesh for MuJoCo (world mm, cached by digest): the exact mesh when it has at
+    most ``TOL.sim_mesh_max_faces`` triangles, else the part re-tessellated with its linear
+    deflection multiplied by ``TOL.sim_mesh_coarsen`` (angular by its square root) until it
+    fits.
+
+    Raises:
+        KernelError: the part still has too many triangles after
+            :data:`SIM_MAX_COARSEN_STEPS` steps (many flat features: coarser meshing cannot
+            help); the message names the part and the figure.
+    """
+    key = part.digest
+    hit = _SIM.get(key)
+    if hit is not None:
+        return hit
+    mesh = part_mesh(part)
+    cap = TOL.sim_mesh_max_faces
+    if len(mesh.faces) > cap:
+        from .. import kernel
+        exact = len(mesh.faces)
+        shape = part.shape()
+        linear, angular = kernel.mesh_deflection(shape), TOL.mesh_angular_rad
+        for _ in range(SIM_MAX_COARSEN_STEPS):
+            linear *= TOL.sim_mesh_coarsen
+            angular = min(angular * TOL.sim_mesh_coarsen ** 0.5, SIM_MAX_ANGULAR_RAD)
+            mesh = kernel.tessellate(shape, linear=linear, angular=angular, name=part.name)
+            if len(mesh.faces) <= cap:
+                break
+        else:
+            raise KernelError(
+                f"part {part.name}: its MuJoCo mesh still has {len(mesh.faces):,} triangles at "
+                f"{linear:.3g} mm deflection, over MuJoCo's limit of {cap:,} "
+                f"(TOL.sim_mesh_max_faces); simplify the part")
+        log.info("part %s: %d triangles for MuJoCo (exact mesh %d) at %.3g mm deflection",
+                 part.name, len(mesh.faces), exact, linear)
+    _SIM[key] = mesh
+    return mesh
 
 
 def transform(mesh: Mesh, matrix: np.ndarray, *, scale: float = 1.0) -> Mesh:
@@ -88,7 +136,7 @@ def collision_pieces(part: CompiledPart) -> list[Mesh]:
         return _COLLISION[key]
     import trimesh
     pieces: list[Mesh] = []
-    for comp in _components(part_mesh(part)):
+    for comp in _components(sim_mesh(part)):
         hull = _hull(comp)
         if hull is None:
             continue
@@ -105,6 +153,67 @@ def collision_pieces(part: CompiledPart) -> list[Mesh]:
     return pieces
 
 
+def smooth_normals(mesh: Mesh, *, crease_deg: float = TOL.normal_crease_deg) -> tuple[Mesh, np.ndarray]:
+    """``(mesh with split vertices, unit vertex normals)`` for smooth shading with crisp edges.
+
+    Each triangle corner starts as its own vertex; two corners at the same vertex are merged
+    when their triangles share an edge through it whose dihedral (angle between the face
+    normals) is below ``crease_deg`` (so a curved surface shades smooth and a box edge, a
+    chamfer or a non-manifold edge splits). A merged vertex's normal is the area-weighted sum
+    of its triangles' normals, made unit. Positions and triangles are unchanged; vertex order
+    is deterministic (first corner order).
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    v, f = mesh.vertices, mesh.faces
+    m = len(f)
+    if m == 0:
+        return mesh, np.zeros((len(v), 3))
+    cross = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    norm = np.linalg.norm(cross, axis=1)
+    unit = cross / np.where(norm > 0, norm, 1.0)[:, None]
+    # half-edge h = 3*i + k runs from corner h (vertex f[i, k]) to corner nxt[h]
+    start = f.reshape(-1)
+    nxt = (np.arange(m)[:, None] * 3 + np.array([1, 2, 0])).reshape(-1)
+    end = start[nxt]
+    key = np.sort(np.stack([start, end], axis=1), axis=1)
+    order = np.lexsort((key[:, 1], key[:, 0]))
+    ks = key[order]
+    first = np.r_[True, np.any(ks[1:] != ks[:-1], axis=1)]
+    group = np.cumsum(first) - 1
+    counts = np.bincount(group)
+    pos = np.flatnonzero(first)[counts == 2]  # manifold edges: exactly two half-edges
+    h1, h2 = order[pos], order[pos + 1]
+    smooth = np.einsum("ij,ij->i", unit[h1 // 3], unit[h2 // 3]) > np.cos(np.radians(crease_deg))
+    h1, h2 = h1[smooth], h2[smooth]
+    same_dir = start[h1] == start[h2]  # flipped neighbour: twin runs the same way
+    a1, b1 = h1, nxt[h1]
+    a2 = np.where(same_dir, h2, nxt[h2])
+    b2 = np.where(same_dir, nxt[h2], h2)
+    rows = np.r_[a1, b1]
+    cols = np.r_[a2, b2]
+    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(3 * m, 3 * m))
+    n, labels = connected_components(graph, directed=False)
+    # Max's weights (J. Graphics Tools 4(2), 1999): each corner adds its face's cross product
+    # divided by the squared lengths of its two edges, exact for vertices on a sphere
+    corners = np.arange(3 * m)
+    prev = (np.arange(m)[:, None] * 3 + np.array([2, 0, 1])).reshape(-1)
+    e1 = v[end] - v[start]
+    e2 = v[start[prev]] - v[start]
+    w = 1.0 / np.maximum(np.einsum("ij,ij->i", e1, e1) * np.einsum("ij,ij->i", e2, e2),
+                         np.finfo(float).tiny)
+    normals = np.zeros((n, 3))
+    np.add.at(normals, labels, cross[corners // 3] * w[:, None])
+    length = np.linalg.norm(normals, axis=1)
+    corner_of = np.zeros(n, dtype=np.int64)
+    corner_of[labels[::-1]] = corners[::-1]  # first corner of each new vertex
+    fallback = unit[corner_of // 3]
+    normals = np.where(length[:, None] > 0, normals / np.where(length > 0, length, 1.0)[:, None],
+                       fallback)
+    return Mesh(v[start[corner_of]], labels.reshape(m, 3).astype(np.int64)), normals
+
+
 def stl_bytes(mesh: Mesh) -> bytes:
     """Binary STL of ``mesh`` (units as given)."""
     import trimesh
@@ -116,3 +225,4 @@ def clear_cache() -> None:
     from ..program.model import clear_mesh_cache
     clear_mesh_cache()
     _COLLISION.clear()
+    _SIM.clear()

@@ -33,7 +33,7 @@ from .. import materials
 from ..articulation.mass import MassProps, link_masses
 from ..articulation.tree import Articulation, articulate
 from ..program.model import CompiledModel
-from .meshes import collision_pieces, part_mesh, stl_bytes, to_local_m
+from .meshes import collision_pieces, part_mesh, sim_mesh, stl_bytes, to_local_m
 
 log = logging.getLogger(__name__)
 
@@ -112,7 +112,7 @@ def _geoms(spec, body, model: CompiledModel, name: str, frame: np.ndarray,
     part = model.part(name)
     mat = materials.get(part.material)
     fname = f"{name}.stl"
-    assets[fname] = stl_bytes(to_local_m(part_mesh(part), frame))
+    assets[fname] = stl_bytes(to_local_m(sim_mesh(part), frame))  # within MuJoCo's face limit
     spec.add_mesh(name=name, file=fname)
     g = body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_MESH, meshname=name,
                       contype=0, conaffinity=0, group=1, rgba=[*mat.rgb, 1.0])

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Literal
 
 from ..errors import KernelError, ProceduraError
+from .step_order import canonical_step
 
 if TYPE_CHECKING:
     from ..program.model import CompiledModel
@@ -246,7 +247,7 @@ def step_bytes(model: CompiledModel, *, schema: Schema = "AP214") -> bytes:
         if status != IFSelect_ReturnStatus.IFSelect_RetDone:
             raise StepExportError(f"writing STEP for model {model.name!r} failed: {status}")
         with open(path, "rb") as fh:
-            data = fh.read()
+            data = canonical_step(fh.read().decode("ascii")).encode("ascii")
     finally:
         os.unlink(path)
     log.debug("STEP %s: %d parts, %d bytes", schema, len(model.parts), len(data))

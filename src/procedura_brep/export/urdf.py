@@ -30,7 +30,7 @@ from .. import materials
 from ..articulation.mass import MassProps, link_masses
 from ..articulation.tree import Articulation, Joint, articulate
 from ..program.model import CompiledModel
-from .meshes import collision_pieces, part_mesh, stl_bytes, to_local_m
+from .meshes import collision_pieces, sim_mesh, stl_bytes, to_local_m
 
 Profile = Literal["strict", "mujoco"]
 
@@ -129,12 +129,13 @@ def _joint(robot: ET.Element, name: str, jtype: str, parent: str, child: str, or
 
 
 def mesh_files(model: CompiledModel, art: Articulation) -> dict[str, bytes]:
-    """``meshes/<part>.stl`` (visual) and ``meshes/<part>__c<k>.stl`` (collision), link-local, m."""
+    """``meshes/<part>.stl`` (visual) and ``meshes/<part>__c<k>.stl`` (collision), link-local, m;
+    within MuJoCo's face limit (:func:`.meshes.sim_mesh`)."""
     out: dict[str, bytes] = {}
     for lk in art.links:
         for name in lk.parts:
             part = model.part(name)
-            out[f"meshes/{name}.stl"] = stl_bytes(to_local_m(part_mesh(part), lk.frame))
+            out[f"meshes/{name}.stl"] = stl_bytes(to_local_m(sim_mesh(part), lk.frame))
             for k, piece in enumerate(collision_pieces(part)):
                 out[f"meshes/{name}__c{k}.stl"] = stl_bytes(to_local_m(piece, lk.frame))
     return out

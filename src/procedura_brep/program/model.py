@@ -88,7 +88,8 @@ class CompiledPart:
         return kernel.located(self.local_shape(), self.placement)
 
     def mesh(self):
-        """The part's world mesh (mm) with the fixed tessellation settings of ``config.TOL``.
+        """The part's world mesh (mm) with the tessellation settings of ``config.TOL`` (linear
+        deflection scaled with the part's size, see :func:`procedura_brep.kernel.tessellate`).
 
         Shared by gates, exports and renders through a digest-keyed cache, so each geometry is
         tessellated once per process.
@@ -97,7 +98,7 @@ class CompiledPart:
         hit = _MESHES.get(key)
         if hit is None:
             from .. import kernel
-            hit = kernel.tessellate(self.shape())
+            hit = kernel.tessellate(self.shape(), name=self.name)
             if len(_MESHES) >= _MESH_CACHE_SIZE:
                 _MESHES.pop(next(iter(_MESHES)))
             _MESHES[key] = hit

@@ -1,0 +1,190 @@
+"""Deterministic order for the colour section of a STEP file written by OCCT.
+
+``STEPCAFControl_Writer`` gathers the colour presentation of an assembly's parts (one
+``MECHANICAL_DESIGN_GEOMETRIC_PRESENTATION_REPRESENTATION`` per part, each with its
+``STYLED_ITEM`` and style entities) in a map keyed by shape, whose hash is the address of the
+shape's ``TShape``; it adds them to the STEP model in that map's iteration order. Addresses
+change from process to process, so the entity numbers of that section, and the bytes of the
+file, did too. Nothing in the writer's API fixes that order, and the STEP model cannot be
+reordered from Python (this OCP build's ``Interface_InterfaceModel.Number`` and the graph
+tools find no entity passed in from Python), so the written text is canonicalised instead.
+
+The rule: the presentation section is the file's tail, from the first presentation entity on
+(nothing before it refers into it: checked). Its roots (entities no tail entity refers to) are
+sorted by the entity numbers of the geometry they style, which come before the tail and are
+fixed by the part order; the tail is then laid out again depth-first from the roots, following
+references in field order, renumbered consecutively from where it started, and each record is
+re-wrapped deterministically. Only numbers inside the tail change, so every reference stays
+valid; the test re-reads the file through XCAF (names and colours). OCCT adds each part's
+presentation root first, so the tail begins with a presentation entity; a file that breaks
+these assumptions (a later OCCT) is left as written, with a warning.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+
+from ..errors import KernelError
+
+log = logging.getLogger(__name__)
+
+#: Record types that open the presentation (colour) section OCCT appends after the geometry.
+PRESENTATION_TYPES: tuple[str, ...] = (
+    "MECHANICAL_DESIGN_GEOMETRIC_PRESENTATION_REPRESENTATION", "STYLED_ITEM",
+    "OVER_RIDING_STYLED_ITEM", "PRESENTATION_LAYER_ASSIGNMENT", "DRAUGHTING_MODEL")
+#: Physical lines of the rewritten records are wrapped after a comma beyond this column.
+LINE_WIDTH = 72
+#: Continuation lines are indented like OCCT's writer does.
+INDENT = "    "
+
+_REF = re.compile(r"#(\d+)")
+_ID = re.compile(r"#(\d+)\s*=\s*")
+
+
+def _split_records(data: str) -> list[tuple[str, int]]:
+    """The records of a DATA section body: ``(#n = ... without the ;, offset after the ;)``.
+
+    Semicolons inside STEP strings (apostrophe-quoted, ``''`` escapes) do not end a record.
+    """
+    out, start, quoted = [], 0, False
+    for i, ch in enumerate(data):
+        if ch == "'":
+            quoted = not quoted
+        elif ch == ";" and not quoted:
+            out.append((data[start:i].strip(), i + 1))
+            start = i + 1
+    if data[start:].strip():
+        raise KernelError("STEP DATA section ends inside a record")
+    return out
+
+
+def _outside_strings(body: str) -> list[tuple[str, bool]]:
+    """``body`` cut into (text, is_string) runs."""
+    runs, cur, quoted = [], [], False
+    for ch in body:
+        if ch == "'" and not quoted:
+            if cur:
+                runs.append(("".join(cur), False))
+            cur, quoted = [ch], True
+        elif ch == "'" and quoted:
+            cur.append(ch)
+            quoted = False
+            runs.append(("".join(cur), True))
+            cur = []
+        else:
+            cur.append(ch)
+    if cur:
+        runs.append(("".join(cur), quoted))
+    return runs
+
+
+def _refs(body: str) -> list[int]:
+    """Entity numbers ``body`` refers to, in field order (not those inside strings)."""
+    return [int(m) for text, is_str in _outside_strings(body) if not is_str
+            for m in _REF.findall(text)]
+
+
+def _renumber(body: str, mapping: dict[int, int]) -> str:
+    """``body`` with every reference ``#n`` outside strings replaced by ``#mapping[n]`` (when
+    mapped) and line breaks outside strings removed."""
+    out = []
+    for text, is_str in _outside_strings(body):
+        if is_str:
+            out.append(text)
+            continue
+        text = re.sub(r"\s*\n\s*", "", text)
+        out.append(_REF.sub(lambda m: f"#{mapping.get(int(m.group(1)), int(m.group(1)))}", text))
+    return "".join(out)
+
+
+def _wrap(line: str) -> str:
+    """``line`` broken after commas outside strings once it passes :data:`LINE_WIDTH`."""
+    out, col = [], 0
+    for text, is_str in _outside_strings(line):
+        if is_str:
+            out.append(text)
+            col += len(text)
+            continue
+        for ch in text:
+            out.append(ch)
+            col += 1
+            if ch == "," and col > LINE_WIDTH:
+                out.append("\n" + INDENT)
+                col = len(INDENT)
+    return "".join(out)
+
+
+def canonical_step(text: str) -> str:
+    """``text`` (a STEP file written by OCCT) with its presentation section in canonical order.
+
+    Files without a presentation section come back unchanged; so does a file whose layout
+    breaks the rule's assumptions (no DATA section, a presentation section that geometry refers
+    into, a reference cycle), with a warning: the file is valid, only not reproducible.
+    """
+    try:
+        return _canonical(text)
+    except KernelError as exc:
+        log.warning("STEP colour section left in OCCT's order (bytes may differ between "
+                    "processes): %s", exc)
+        return text
+
+
+def _canonical(text: str) -> str:
+    """:func:`canonical_step`, raising :class:`KernelError` where it cannot apply the rule."""
+    begin = text.find("\nDATA;\n")
+    end = text.rfind("ENDSEC;")
+    if begin < 0 or end < begin:
+        raise KernelError("STEP text has no DATA section")
+    body_start = begin + len("\nDATA;\n")
+    records = _split_records(text[body_start:end])
+    parsed: list[tuple[int, str]] = []
+    for rec, _ in records:
+        m = _ID.match(rec)
+        if m is None:
+            raise KernelError(f"STEP record without an entity id: {rec[:40]!r}")
+        parsed.append((int(m.group(1)), rec[m.end():]))
+    first = next((k for k, (_, body) in enumerate(parsed)
+                  if body.lstrip("( ").split("(", 1)[0].strip() in PRESENTATION_TYPES), None)
+    if first is None:
+        return text
+    head, tail = parsed[:first], parsed[first:]
+    ids = [i for i, _ in tail]
+    tail_ids = set(ids)
+    if any(r in tail_ids for _, body in head for r in _refs(body)):
+        raise KernelError("the STEP colour section is referenced by geometry entities; "
+                          "cannot order it deterministically")
+    bodies = dict(tail)
+    refs = {i: _refs(b) for i, b in tail}
+    referenced = {r for i in ids for r in refs[i] if r in tail_ids}
+
+    def styled(root: int) -> tuple[int, ...]:
+        seen, stack, found = set(), [root], set()
+        while stack:
+            i = stack.pop()
+            if i not in seen:
+                seen.add(i)
+                for r in refs[i]:
+                    (stack.append(r) if r in tail_ids else found.add(r))
+        return tuple(sorted(found))
+
+    roots = sorted((i for i in ids if i not in referenced),
+                   key=lambda i: (styled(i), _REF.sub("#", bodies[i])))
+    order: list[int] = []
+    placed: set[int] = set()
+    for root in roots:
+        stack = [root]
+        while stack:
+            k = stack.pop()
+            if k not in placed:
+                placed.add(k)
+                order.append(k)
+                stack.extend(r for r in reversed(refs[k]) if r in tail_ids and r not in placed)
+    if len(order) != len(ids):
+        raise KernelError("the STEP colour section has a reference cycle; cannot order it")
+    mapping = dict(zip(order, sorted(ids)))
+    lines = [_wrap(f"#{mapping[i]} = {_renumber(bodies[i], mapping)};") for i in order]
+    cut = body_start + (records[first - 1][1] if first else 0)
+    if first and text[cut] == "\n":
+        cut += 1
+    return text[:cut] + "\n".join(lines) + "\n" + text[end:]

@@ -1,0 +1,137 @@
+"""The same program gives the same bytes in two separate processes (every file of the run
+directory; report.json apart from its timings), and the STEP colour-section canonicalisation
+that makes STEP reproducible keeps the file valid."""
+
+from __future__ import annotations
+
+import json
+import random
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from procedura_brep import materials
+from procedura_brep.export import step_order
+from procedura_brep.export.step import read_step_parts
+
+PROGRAM = Path(__file__).with_name("posts.py")
+#: Text formats we own; each must be byte-identical across processes.
+TEXT_FILES = ("model.step", "model.obj", "model.mtl", "model.usda", "urdf/robot.urdf",
+              "urdf/robot.mujoco.urdf", "model.xml", "mates.json")
+RGB_TOL = 1 / 255
+
+
+def _untimed(doc: Any) -> Any:
+    """``doc`` without its timings: every ``timings`` object and every ``*_s`` (seconds) field."""
+    if isinstance(doc, dict):
+        return {k: _untimed(v) for k, v in doc.items() if k != "timings" and not k.endswith("_s")}
+    if isinstance(doc, list):
+        return [_untimed(v) for v in doc]
+    return doc
+
+
+def _build(out: Path) -> None:
+    proc = subprocess.run([sys.executable, "-m", "procedura_brep.cli", "build", str(PROGRAM),
+                           "-o", str(out)], capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+
+
+@pytest.fixture(scope="module")
+def two_runs(tmp_path_factory) -> tuple[Path, Path]:
+    root = tmp_path_factory.mktemp("repro")
+    a, b = root / "a", root / "b"
+    _build(a)
+    _build(b)
+    return a, b
+
+
+def test_text_formats_identical_across_processes(two_runs: tuple[Path, Path]) -> None:
+    a, b = two_runs
+    for rel in TEXT_FILES:
+        assert (a / rel).read_bytes() == (b / rel).read_bytes(), f"{rel} differs between processes"
+
+
+def test_every_file_identical_across_processes(two_runs: tuple[Path, Path]) -> None:
+    """Binary files too (GLB, STL meshes); report.json compared without its timings."""
+    a, b = two_runs
+    files = sorted(p.relative_to(a).as_posix() for p in a.rglob("*") if p.is_file())
+    assert files == sorted(p.relative_to(b).as_posix() for p in b.rglob("*") if p.is_file())
+    assert "model.glb" in files and any(f.endswith(".stl") for f in files)
+    for rel in files:
+        if rel == "report.json":
+            ra, rb = (_untimed(json.loads((d / rel).read_text())) for d in (a, b))
+            assert ra == rb
+        else:
+            assert (a / rel).read_bytes() == (b / rel).read_bytes(), rel
+
+
+def test_step_still_reads_back(two_runs: tuple[Path, Path]) -> None:
+    """The canonicalised STEP re-reads through XCAF with every name and colour."""
+    a, _ = two_runs
+    parts = read_step_parts((a / "model.step").read_bytes())
+    want = {"plate": "cast_iron", "post_a": "brass", "post_b": "copper", "post_c": "titanium",
+            "post_d_part": "orange_plastic", "post_e": "nylon", "arm": "painted_steel"}
+    assert [p.name for p in parts] == list(want)
+    for p in parts:
+        assert p.rgb is not None
+        assert max(abs(x - y) for x, y in zip(p.rgb, materials.get(want[p.name]).rgb)) <= RGB_TOL
+
+
+def _shuffle_tail(text: str, seed: int) -> str:
+    """The same STEP content with the colour section's records renumbered and laid out in a
+    random order (what a different process's hash order looks like)."""
+    begin = text.index("\nDATA;\n") + len("\nDATA;\n")
+    end = text.rindex("ENDSEC;")
+    records = [r for r, _ in step_order._split_records(text[begin:end])]
+    first = next(k for k, r in enumerate(records)
+                 if "MECHANICAL_DESIGN_GEOMETRIC_PRESENTATION_REPRESENTATION" in r)
+    ids = [int(step_order._ID.match(r).group(1)) for r in records[first:]]
+    new = ids[:]
+    random.Random(seed).shuffle(new)
+    # OCCT adds each part's presentation root first: keep a root at the start of the section
+    root = next(k for k, r in enumerate(records[first:]) if "PRESENTATION_REPRESENTATION" in r)
+    at = new.index(ids[0])
+    new[root], new[at] = new[at], new[root]
+    mapping = dict(zip(ids, new))
+    tail = []
+    for r in records[first:]:
+        m = step_order._ID.match(r)
+        tail.append((mapping[int(m.group(1))],
+                     step_order._renumber(r[m.end():], mapping)))
+    head = "".join(r + ";\n" for r in records[:first])
+    body = "".join(f"#{i} = {b};\n" for i, b in sorted(tail))
+    return text[:begin] + head + body + text[end:]
+
+
+def test_canonical_order_ignores_the_writers_order(two_runs: tuple[Path, Path]) -> None:
+    a, _ = two_runs
+    text = (a / "model.step").read_text()
+    shuffled = [_shuffle_tail(text, seed) for seed in range(3)]
+    assert len(set(shuffled)) > 1  # the shuffles really differ
+    for s in shuffled:
+        assert step_order.canonical_step(s) == text
+        assert [p.name for p in read_step_parts(s.encode())] == \
+            [p.name for p in read_step_parts(text.encode())]
+
+
+def test_tail_referenced_from_geometry_is_left_alone(caplog) -> None:
+    """A layout the rule does not cover is kept as written (valid, not reordered), with a
+    warning, rather than failing the export."""
+    text = ("ISO-10303-21;\nHEADER;\nENDSEC;\nDATA;\n#1 = FOO(#3);\n"
+            "#2 = STYLED_ITEM('color',(),#1);\n#3 = COLOUR_RGB('',1.,0.,0.);\nENDSEC;\n"
+            "END-ISO-10303-21;\n")
+    with pytest.raises(step_order.KernelError, match="referenced by geometry"):
+        step_order._canonical(text)
+    with caplog.at_level("WARNING", logger="procedura_brep.export.step_order"):
+        assert step_order.canonical_step(text) == text
+    assert "left in OCCT's order" in caplog.text
+
+
+def test_semicolons_in_strings_do_not_split_records() -> None:
+    data = "#1 = A('x;y');\n#2 = B('it''s; fine',#1);\n"
+    assert [r for r, _ in step_order._split_records(data)] == \
+        ["#1 = A('x;y')", "#2 = B('it''s; fine',#1)"]
+    assert step_order._refs("B('#9',#1)") == [1]
