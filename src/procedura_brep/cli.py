@@ -453,6 +453,7 @@ def generate(
 ) -> None:
     """Generate an assembly with a model: plan, review, build one part per call, refine, then build
     the run directory (``--one-shot``: the whole program in one call)."""
+    from .agent.rundir import ResumeError
     from .errors import InputError
     from .llm import ConfigError, LLMError
     from .llm.settings import resolve_model
@@ -495,7 +496,7 @@ def generate(
                                        resume=resume is not None,
                                        progress=(lambda stage, text: progress(f"{stage}: {text}")))
                 status, message, calls = sres.status, sres.message, sres.state.step
-    except ConfigError as exc:
+    except (ConfigError, ResumeError) as exc:
         _err(str(exc))
         raise typer.Exit(EXIT_USAGE) from None
     except LLMError as exc:
@@ -577,7 +578,12 @@ def doctor(
 ) -> None:
     """Check the CAD kernel, renderer, MuJoCo, USD, FreeCAD and the provider."""
     from .doctor import run_checks
-    checks = run_checks(model=model, base_url=base_url, ping=ping)
+    from .llm.settings import config_path, resolve_model
+    setting = resolve_model(model, base_url)
+    where = {"none": f"none (no --model, no PROCEDURA_BREP_MODEL, nothing in {config_path()})"}.get(
+        setting.source, setting.source)
+    typer.echo(f"model in force: {setting.model or '-'} (from {where})")
+    checks = run_checks(model=setting.model, base_url=setting.base_url, ping=ping)
     from .text import terminal_safe
     for c in checks:
         typer.echo(terminal_safe(c.line()))  # a provider's error text is not ours
