@@ -338,7 +338,7 @@ def test_progress_goes_to_stderr_and_quiet_silences_it(tmp_path):
 
 def test_generate_replay_says_what_each_attempts_feedback_was(tmp_path):
     tape = Path(__file__).parents[1] / "examples" / "tapes" / "lamp_oneshot.jsonl"
-    res = invoke("generate", "a desk lamp with a swinging arm", "-o", str(tmp_path / "lamp"),
+    res = invoke("generate", "--one-shot", "a desk lamp with a swinging arm", "-o", str(tmp_path / "lamp"),
                  "--model", f"replay:{tape}", "--formats", "step")
     assert res.exit_code == 0, res.output
     err = res.stderr

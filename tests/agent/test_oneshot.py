@@ -18,7 +18,7 @@ TAPE = Path(__file__).parents[2] / "examples" / "tapes" / "lamp_oneshot.jsonl"
 
 def test_replay_tape_builds_after_feedback(tmp_path, worker):
     out = tmp_path / "run"
-    res = CliRunner().invoke(app, ["generate", "a desk lamp with a swinging arm", "-o", str(out),
+    res = CliRunner().invoke(app, ["generate", "--one-shot", "a desk lamp with a swinging arm", "-o", str(out),
                                    "--model", f"replay:{TAPE}", "--formats", "step"])
     assert res.exit_code == 0, res.output
     report = json.loads((out / "report.json").read_text())
@@ -35,7 +35,7 @@ def test_replay_tape_builds_after_feedback(tmp_path, worker):
 
 def test_unreachable_endpoint_fails_fast_and_names_it(tmp_path):
     t = time.monotonic()
-    res = CliRunner().invoke(app, ["generate", "a lamp", "-o", str(tmp_path / "x"), "--model",
+    res = CliRunner().invoke(app, ["generate", "--one-shot", "a lamp", "-o", str(tmp_path / "x"), "--model",
                                    "openai:some-model", "--base-url", "http://127.0.0.1:9/v1"])
     assert res.exit_code == 1
     assert "127.0.0.1:9" in res.output and "Traceback" not in res.output
@@ -45,7 +45,7 @@ def test_unreachable_endpoint_fails_fast_and_names_it(tmp_path):
 def test_tape_with_no_reply_for_a_step_is_an_error(tmp_path):
     tape = tmp_path / "t.jsonl"
     tape.write_text(TAPE.read_text().splitlines()[0] + "\n")  # only the broken first reply
-    res = CliRunner().invoke(app, ["generate", "a lamp", "-o", str(tmp_path / "r"), "--model",
+    res = CliRunner().invoke(app, ["generate", "--one-shot", "a lamp", "-o", str(tmp_path / "r"), "--model",
                                    f"replay:{tape}", "--formats", "step"])
     assert res.exit_code == 1
     assert "no recorded reply for role='oneshot' step=1" in res.output
@@ -81,7 +81,7 @@ def test_exchange_provider_drives_generate(tmp_path, worker):
 
     t = threading.Thread(target=answer)
     t.start()
-    res = CliRunner().invoke(app, ["generate", "a desk lamp", "-o", str(tmp_path / "run"),
+    res = CliRunner().invoke(app, ["generate", "--one-shot", "a desk lamp", "-o", str(tmp_path / "run"),
                                    "--model", f"exchange:{xchg}", "--formats", "step"])
     t.join()
     assert res.exit_code == 0, res.output
@@ -106,7 +106,7 @@ def test_max_cost_stops_cleanly_and_keeps_the_work(tmp_path, worker, monkeypatch
     prices.write_text('["pricey:m"]\ninput = 1.0\ncached_input = 0.5\noutput = 2.0\n')
     monkeypatch.setenv("PROCEDURA_BREP_PRICES", str(prices))
     out = tmp_path / "run"
-    res = CliRunner().invoke(app, ["generate", "a desk lamp", "-o", str(out), "--model", "pricey:m",
+    res = CliRunner().invoke(app, ["generate", "--one-shot", "a desk lamp", "-o", str(out), "--model", "pricey:m",
                                    "--max-cost", "0.5", "--formats", "step"])
     assert res.exit_code == 1 and "budget_exceeded" in res.output, res.output
     report = json.loads((out / "report.json").read_text())
