@@ -19,7 +19,9 @@ other:
 * With a mate frame, a common that *surrounds* the mate axis without containing it (a ring: a
   press or snap fit's interference, or a collar sunk onto a column) measures its radial wall
   ``r_max - r_min`` about the axis, and the depth is ``min(w, r_max - r_min)``: a 0.02 mm press
-  ring 20 mm long reads 0.02, a 2 mm gouge of a head onto its column reads 2.
+  ring 20 mm long reads 0.02, a 2 mm gouge of a head onto its column reads 2. Between parts
+  that are not partners (:meth:`CommonSolid.free_depth`) the candidate axes are the two parts'
+  mate frames and the three world axes through the solid's box centre.
 
 The points are the nodes of a tessellation of ``s`` whose linear deflection is
 ``TOL.common_deflection_rel`` of its mean thickness ``2 V / A`` (nodes lie on the exact surfaces,
@@ -63,12 +65,29 @@ class CommonSolid:
         """Thickness (mm), see the module doc; ``frame`` is a mate frame (world 4x4) or None."""
         if frame is None or not len(self.nodes):
             return self.width
+        return min(self.width, self._ring_wall(frame))
+
+    def free_depth(self, frames: list[np.ndarray] = ()) -> float:
+        """Thickness with no mate of its own: the minimum width, or the radial wall of a ring
+        about any of ``frames`` (the two parts' mate frames) or about a world axis through the
+        solid's box centre."""
+        c = (self.lo + self.hi) / 2.0
+        axes = []
+        for rot in (np.eye(3), np.array([[0, 0, 1], [1, 0, 0], [0, 1, 0]], float),
+                    np.array([[0, 1, 0], [0, 0, 1], [1, 0, 0]], float)):
+            m = np.eye(4)
+            m[:3, :3], m[:3, 3] = rot, c
+            axes.append(m)
+        return min([self.width] + [self._ring_wall(f) for f in [*frames, *axes]])
+
+    def _ring_wall(self, frame: np.ndarray) -> float:
+        """Radial wall (mm) of the solid as a ring about ``frame``'s Z axis (inf if not a ring)."""
         inv = np.linalg.inv(frame)
         p = self.nodes @ inv[:3, :3].T + inv[:3, 3]
         r = np.hypot(p[:, 0], p[:, 1])
         if not _surrounds(p) or _pierced(self.shape, frame, p[:, 2].min(), p[:, 2].max()):
-            return self.width
-        return min(self.width, float(r.max() - r.min()))
+            return math.inf
+        return float(r.max() - r.min())
 
     def touches(self, frame: np.ndarray, radius: float, half_depth: float) -> bool:
         """True when the solid reaches into the cylinder ``|xy| <= radius, |z| <= half_depth``

@@ -84,7 +84,8 @@ def candidate_pairs(model: CompiledModel) -> list[tuple[int, int]]:
     return [tuple(p) for p in box_pairs(lo, hi, 0.0).tolist()]
 
 
-def _judge(a: str, b: str, com: Common, mates: list[CompiledMate]) -> PairOverlap | None:
+def _judge(a: str, b: str, com: Common, mates: list[CompiledMate],
+           frames: list[np.ndarray]) -> PairOverlap | None:
     slack = TOL.penetration_slack_mm
     if not com.exact:
         lim = max([penetration_limit(m.fit or {}) for m in mates], default=slack)
@@ -109,7 +110,7 @@ def _judge(a: str, b: str, com: Common, mates: list[CompiledMate]) -> PairOverla
             verdict = verdict or (d, lim, False, "mate" if m.kind == "static" else "interference",
                                   m.name)
         if verdict is None:
-            d = s.depth(None)
+            d = s.free_depth(frames)
             if d <= slack:
                 continue
             verdict = (d, slack, False, "interference", None)
@@ -134,7 +135,9 @@ def scan(model: CompiledModel) -> list[PairOverlap]:
         ga, gb = part_geometry(pa), part_geometry(pb)
         com = common(ga, pa.shape(), gb, pb.shape())
         mates = [m for m in model.mates if {m.child, m.parent} == {pa.name, pb.name}]
-        row = _judge(pa.name, pb.name, com, mates)
+        frames = [m.world_frame for m in model.mates
+                  if {m.child, m.parent} & {pa.name, pb.name}]
+        row = _judge(pa.name, pb.name, com, mates, frames)
         if row is not None:
             out.append(row)
     return out
