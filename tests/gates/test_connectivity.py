@@ -6,7 +6,7 @@ import pytest
 from conftest import cpart
 
 from procedura_brep.gates.connectivity import analyse, connectivity_gate
-from procedura_brep.gates.geometry import part_geometry
+from procedura_brep.gates.geometry import CONNECT_MM, part_geometry
 from procedura_brep.mates.placement import trans
 from procedura_brep.program.model import CompiledModel
 
@@ -52,8 +52,15 @@ def test_face_to_face_parts_are_connected():
 
 
 def test_fit_clearance_counts_as_contact(make_peg):
-    model = make_peg(10.0, "clearance")
+    # lifted 0.1 mm: the shoulder and the peg's tip are clear (0.1 mm > CONNECT_MM, and the tip
+    # sits over the socket's relief), so the only contact left is the peg's wall across the
+    # H7/g6 radial clearance (8.5 um per side at d = 10)
+    model = make_peg(10.0, "clearance", lift=0.1)
+    gap = model.mates[0].fit["offset"]
+    assert 0 < gap < CONNECT_MM
     assert len(analyse(model).components) == 1
+    # the same fixture falls apart once contact is tighter than the clearance: this test can fail
+    assert len(analyse(model, contact=gap / 2).components) == 2
 
 
 def test_part_of_two_disjoint_solids_is_two_pieces():

@@ -292,7 +292,7 @@ def _dir(v: np.ndarray) -> str:
 
 def flipped_hint(model: CompiledModel, mate: CompiledMate) -> str:
     """Which frame's +Z points which way (world) and which one is wrong, for a mate that both
-    hovers and gouges."""
+    hovers and gouges ("" when both bodies lie on their own sides: a plain gouge)."""
     child, parent = model.part(mate.child), model.part(mate.parent)
     fz = mate.world_frame[:3, 2]
     cz = child.world_frame(mate.child_frame)[:3, 2] if mate.child_frame in child.frames else fz
@@ -302,8 +302,9 @@ def flipped_hint(model: CompiledModel, mate: CompiledMate) -> str:
     wrong = [f"{mate.parent}.{mate.parent_frame}"] if hp > 0 else []
     if hc < 0:
         wrong.append(f"{mate.child}.{mate.child_frame}")
-    blame = (f"flip {' and '.join(wrong)}" if wrong else
-             "check both frames' origins and directions")
+    if not wrong:  # both bodies on their own sides: a plain gouge, not a flipped frame
+        return ""
+    blame = f"flip {' and '.join(wrong)}"
     return (f"the frames look flipped: {mate.parent}.{mate.parent_frame} +Z points world "
             f"{_dir(pz)} and {mate.parent}'s body lies on its {'+' if hp > 0 else '-'}Z side "
             f"(must be -Z: a parent frame's +Z points out of the parent); "
