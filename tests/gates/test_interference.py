@@ -174,3 +174,56 @@ def test_planted_gouge_depth_is_read_within_two_percent(shape, g):
     model.mates = []  # as strangers: the interference gate reads the same depth
     found, _ = _codes(model)
     assert found[0].value == pytest.approx(g, rel=0.02)
+
+
+QUILL = '''from procedura_brep.program import *
+
+# === params ===
+spigot_d = 12.0  # mm, spigot under the quill: the nominal of its peg_socket
+pulley_d = 10.0  # mm, pulley hub: the nominal of its seat_face
+quill_travel = {travel}  # mm, where the pulley sits along x
+
+# === helpers ===
+
+# === parts ===
+@part(detail="silhouette", material="steel", description="head block")
+def head():
+    return Box(300, 120, 20, align=(Align.CENTER, Align.CENTER, Align.MAX))
+
+@part(detail="major", material="steel", description="quill column at the head centre")
+def quill():
+    return Cylinder(20, 100, align=(Align.CENTER, Align.CENTER, Align.MIN))
+
+@part(detail="major", material="steel", description="pulley beside the quill")
+def pulley():
+    return Cylinder(30, 20, align=(Align.CENTER, Align.CENTER, Align.MIN))
+
+# === frames ===
+frames("head", top=Location((0, 0, 0)), side=Location((quill_travel, 0, 0)))
+frames("quill", foot=Location((0, 0, 0)))
+frames("pulley", foot=Location((0, 0, 0)))
+
+# === assembly ===
+mate("quill.foot", "head.top", "peg_socket", nominal="spigot_d", fit="location")
+mate("pulley.foot", "head.side", "seat_face", nominal="pulley_d", fit="location")
+'''
+
+
+def test_edit_that_drives_the_pulley_into_the_quill_is_refused(tmp_path):
+    """Issue 11.1: `edit quill_travel=...` pushed a pulley 4 mm into the quill and was accepted."""
+    from typer.testing import CliRunner
+
+    from procedura_brep.cli import app
+
+    prog = tmp_path / "press.py"
+    prog.write_text(QUILL.format(travel=60.0))       # pulley r 30 + quill r 20 = 50 < 60: clear
+    runner = CliRunner()
+    res = runner.invoke(app, ["check", str(prog)])
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["edit", str(prog), "--set", "quill_travel=46"])  # 4 mm in
+    assert res.exit_code == 1
+    out = " ".join(res.output.split())
+    assert "rejected" in out and "pulley and quill interpenetrate" in out
+    depth = float(out.split("interpenetrate: depth ")[1].split(" mm")[0])
+    assert depth == pytest.approx(4.0, rel=0.01)
+    assert "quill_travel = 60.0" in prog.read_text()
