@@ -32,7 +32,7 @@ class Tolerances:
         boolean_face_budget: exact commons (mate and interference gates, B3) are skipped when
             faces(a) * faces(b) exceeds this; a mesh estimate and a warning replace them.
         common_deflection_rel: a common solid is meshed for its depth at this fraction of its
-            mean thickness 2V/A (between common_deflection_min_mm and mesh_linear_mm).
+            smallest box side (between common_deflection_min_mm and mesh_linear_mm).
         common_deflection_min_mm: the finest such deflection.
         mesh_estimate_samples: surface samples per part in the over-budget mesh estimate.
         part_piece_findings: a part with detached pieces gets at most this many findings

@@ -24,8 +24,9 @@ other:
   mate frames and the three world axes through the solid's box centre.
 
 The points are the nodes of a tessellation of ``s`` whose linear deflection is
-``TOL.common_deflection_rel`` of its mean thickness ``2 V / A`` (nodes lie on the exact surfaces,
-so planar and cylindrical walls are measured exactly).
+``TOL.common_deflection_rel`` of its smallest box side (nodes lie on the exact surfaces, so
+planar and cylindrical walls are measured exactly; a curved extreme is missed by at most the
+deflection).
 """
 
 from __future__ import annotations
@@ -170,8 +171,8 @@ def exact_common(shape_a: Any, shape_b: Any) -> list[CommonSolid]:
         if vol <= MIN_COMMON_MM3:
             continue
         area = max(kernel.area(s), 1e-300)
-        nodes = _nodes(s, 2.0 * vol / area)
-        lo, hi = (nodes.min(0), nodes.max(0)) if len(nodes) else (np.zeros(3), np.zeros(3))
+        lo, hi = (np.array(c, float) for c in kernel.bbox(s))  # exact: ring axes are centred on it
+        nodes = _nodes(s, float(np.min(hi - lo)))
         out.append(CommonSolid(vol, area, lo, hi, nodes, _min_width(nodes), s))
     return out
 
@@ -188,11 +189,14 @@ def _solids(shape: Any) -> list[Any]:
     return out
 
 
-def _nodes(solid: Any, thickness: float) -> np.ndarray:
+def _nodes(solid: Any, size: float) -> np.ndarray:
+    """Tessellation nodes of ``solid`` (on its exact surfaces), deflection relative to ``size``
+    (its smallest box side): a thin slab is meshed finely enough to read its thickness, a ring's
+    wall is read from nodes on its two cylinders whatever the density."""
     from .. import kernel
 
     linear = min(TOL.mesh_linear_mm, max(TOL.common_deflection_min_mm,
-                                         TOL.common_deflection_rel * thickness))
+                                         TOL.common_deflection_rel * size))
     mesh = kernel.tessellate(solid, linear=linear, angular=TOL.mesh_angular_rad)
     return np.asarray(mesh.vertices, float)
 
@@ -245,7 +249,7 @@ def _pierced(solid: Any, frame: np.ndarray, z0: float, z1: float) -> bool:
 def _surface_samples(geo: PartGeometry, lo: np.ndarray, hi: np.ndarray,
                      cap: int) -> tuple[np.ndarray, np.ndarray]:
     """Points and outward normals on ``geo``'s triangles inside the box ``lo..hi``, about
-    ``cap`` of them at most (each triangle subdivided to an even spacing)."""
+    ``cap`` of them (plus the triangles' corners)."""
     tri = geo.vertices[geo.faces]
     sel = np.all(tri.max(1) >= lo, 1) & np.all(tri.min(1) <= hi, 1)
     tri = tri[sel]
@@ -254,21 +258,18 @@ def _surface_samples(geo: PartGeometry, lo: np.ndarray, hi: np.ndarray,
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     area = 0.5 * np.linalg.norm(n, axis=1)
     n = n / np.maximum(2 * area, 1e-300)[:, None]
-    h = max(math.sqrt(max(area.sum(), 1e-12) / cap), 1e-3)
-    edges = np.stack([np.linalg.norm(tri[:, i] - tri[:, (i + 1) % 3], axis=1) for i in range(3)], 1)
-    k = np.minimum(np.maximum(1, np.ceil(edges.max(1) / h)), 64).astype(int)
-    pts, nrm = [tri.mean(1)], [n]
-    for m in np.unique(k[k > 1]):
-        s = k == m
-        i, j = np.meshgrid(np.arange(m + 1), np.arange(m + 1), indexing="ij")
-        ok = (i + j) <= m
-        u, w = (i[ok] / m), (j[ok] / m)
-        t = tri[s]
-        p = (t[:, None, 0] * (1 - u - w)[None, :, None] + t[:, None, 1] * u[None, :, None]
-             + t[:, None, 2] * w[None, :, None])
-        pts.append(p.reshape(-1, 3))
-        nrm.append(np.repeat(n[s], len(u), axis=0))
-    return np.vstack(pts), np.vstack(nrm)
+    # about area / h^2 points per triangle (stratified by count, deterministic), so thin
+    # triangles get few points and the total stays near ``cap``
+    h2 = max(area.sum(), 1e-12) / cap
+    k = np.minimum(np.ceil(area / h2), cap).astype(np.int64)
+    rng = np.random.default_rng(0)
+    owner = np.repeat(np.arange(len(tri)), k)
+    u, w = rng.random(len(owner)), rng.random(len(owner))
+    flip = u + w > 1
+    u[flip], w[flip] = 1 - u[flip], 1 - w[flip]
+    t = tri[owner]
+    p = t[:, 0] + u[:, None] * (t[:, 1] - t[:, 0]) + w[:, None] * (t[:, 2] - t[:, 0])
+    return np.vstack([tri.reshape(-1, 3), p]), np.vstack([np.repeat(n, 3, axis=0), n[owner]])
 
 
 def mesh_estimate(ga: PartGeometry, gb: PartGeometry) -> float:
@@ -276,7 +277,8 @@ def mesh_estimate(ga: PartGeometry, gb: PartGeometry) -> float:
 
     Points sampled on each part's surface (inside the two boxes' overlap) are signed against the
     other part's surface samples (inside when behind the nearest sample's outward normal); the
-    estimate is the largest distance of an inside point to the other surface.
+    estimate is the largest height of an inside point below that sample's tangent plane. It is
+    an estimate (coarse samples, tangent planes): the finding that comes with it says so.
     """
     from scipy.spatial import cKDTree
 
@@ -291,10 +293,11 @@ def mesh_estimate(ga: PartGeometry, gb: PartGeometry) -> float:
         return 0.0
     depth = 0.0
     for p, q, nq in ((pa, pb, nb), (pb, pa, na)):
-        dist, idx = cKDTree(q).query(p, k=1)
-        inside = np.einsum("ij,ij->i", p - q[idx], nq[idx]) < -TOL.contact_mm
+        _, idx = cKDTree(q).query(p, k=1)
+        height = np.einsum("ij,ij->i", p - q[idx], nq[idx])  # along the nearest sample's normal
+        inside = height < -TOL.contact_mm
         if inside.any():
-            depth = max(depth, float(dist[inside].max()))
+            depth = max(depth, float((-height[inside]).max()))
     return depth
 
 
