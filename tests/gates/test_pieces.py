@@ -96,7 +96,11 @@ def test_detached_piece_does_not_bear():
     model = _model([base, cpart("plate", lifted)], [_seat()])
     findings, res = mate_gate(model)
     assert not res.passed and res.measured["plate_on_base"]["area_mm2"] == 0.0
-    assert any(f.code == "part-pieces" for f in check_model(model).findings)
+    report = check_model(model)
+    assert any(f.code == "part-pieces" for f in report.findings)
+    # nor does it count as touching: the pad touches the base, the hovering body floats
+    assert report.as_dict()["n_vis"] == 1
+    assert report.as_dict()["connectivity"]["floaters"][0]["parts"] == ["plate"]
     attached = _model([base, cpart("plate", _box(30, 30, 10) + pad)], [_seat()])
     findings, res = mate_gate(attached)
     assert res.passed, [f.message for f in findings]
@@ -182,3 +186,38 @@ def test_bolt_studs_left_in_mid_air_by_an_edit(worker):
     report = check_model(model, bad)
     pieces = [f for f in report.findings if f.code == "part-pieces"]
     assert not report.passed and len(pieces) == 4 and all(f.part == "guard" for f in pieces)
+
+
+TWIN = '''from procedura_brep.program import *
+
+# === params ===
+gap = 20.0  # mm, between the two blocks
+
+# === helpers ===
+
+# === parts ===
+@part(detail="major", material="steel", description="two blocks"{decl})
+def pair():
+    return Compound([Box(10, 10, 10), Pos(gap, 0, 0) * Box(10, 10, 10)])
+
+# === frames ===
+
+# === assembly ===
+'''
+
+
+@pytest.mark.parametrize("decl,ok", [("", False), (", pieces=2", True)])
+def test_pieces_declaration_compiles_and_counts(worker, decl, ok):
+    from procedura_brep.program import compile_source
+    src = TWIN.format(decl=decl)
+    model = compile_source(src, name="twin", worker=worker)
+    assert model.ok, [f.as_dict() for f in model.findings]
+    assert model.parts[0].pieces == (2 if ok else 1)
+    assert pieces_gate(model)[1].passed is ok
+
+
+def test_bad_pieces_declaration_is_a_one_line_error(worker):
+    from procedura_brep.program import compile_source
+    model = compile_source(TWIN.format(decl=", pieces=0"), name="twin", worker=worker)
+    msgs = [f.message for f in model.findings if f.severity == "error"]
+    assert msgs and "pieces=0 must be an integer in [1, 1000]" in msgs[0]
