@@ -227,3 +227,34 @@ def test_edit_that_drives_the_pulley_into_the_quill_is_refused(tmp_path):
     depth = float(out.split("interpenetrate: depth ")[1].split(" mm")[0])
     assert depth == pytest.approx(4.0, rel=0.01)
     assert "quill_travel = 60.0" in prog.read_text()
+
+
+def _plates(n):
+    import sys
+    sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parents[2] / "benchmarks"))
+    from gates import plates_model  # the benchmark's crossed plates (issue 10.1)
+    return plates_model(n)
+
+
+def test_boolean_face_budget_falls_back_to_a_mesh_estimate_with_a_warning(monkeypatch):
+    import dataclasses
+
+    from procedura_brep.gates import common as common_mod
+    from procedura_brep.gates.geometry import clear_caches
+    from procedura_brep.gates.mate_gate import mate_gate
+
+    model = _plates(4)
+    clear_caches()
+    findings, res = mate_gate(model)
+    m = res.measured["comb_foot"]
+    assert m["exact"] and m["penetration_mm"] == pytest.approx(1.0, rel=0.02)
+    assert "boolean-budget" not in {f.code for f in findings}
+    monkeypatch.setattr(common_mod, "TOL", dataclasses.replace(TOL, boolean_face_budget=100))
+    clear_caches()
+    findings, res = mate_gate(model)
+    m = res.measured["comb_foot"]
+    codes = {f.code: f for f in findings}
+    assert not m["exact"] and codes["boolean-budget"].severity == "warning"
+    assert codes["boolean-budget"].value == 24 * 24  # 4 plates of 6 faces each, both parts
+    assert "mate-penetration" in codes and m["penetration_mm"] > m["penetration_limit_mm"]
+    clear_caches()

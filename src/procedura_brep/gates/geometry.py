@@ -108,12 +108,14 @@ _DIST: LRU = LRU()
 
 
 def clear_caches() -> None:
-    """Forget every cached tessellation and distance (tests, memory pressure)."""
-    from . import common
+    """Forget every cached tessellation, distance, common, piece grouping and mate measure."""
+    from . import common, mate_gate, pieces
 
     _PARTS.clear()
     _DIST.clear()
     common.clear()
+    pieces.clear()
+    mate_gate._MEASURED.clear()
 
 
 def face_components(n_vertices: int, faces: np.ndarray) -> tuple[int, np.ndarray]:
