@@ -21,12 +21,12 @@ MARKER = "# === assembly ==="
 
 
 def _complete(text: str) -> bool:
-    return IMPORT in text and MARKER in text and not re.search(r"^\s*\.\.\.\s*$", text, re.M)
+    return IMPORT in text and MARKER in text and not re.search(r"^\s*\.\.\.\s*$", text, re.MULTILINE)
 
 
 def markdown_examples(path: Path) -> list[str]:
     text = path.read_text(encoding="utf-8")
-    return [b for b in re.findall(r"```python\n(.*?)```", text, re.S) if _complete(b)]
+    return [b for b in re.findall(r"```python\n(.*?)```", text, re.DOTALL) if _complete(b)]
 
 
 def _literal_blocks(doc: str) -> list[str]:

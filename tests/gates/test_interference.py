@@ -130,11 +130,13 @@ def test_static_partners_over_their_fit_are_the_mate_gates():
 
 def test_partner_overlap_outside_the_feature_region_is_caught():
     base = cpart("base", _box(400, 100, 20, ("MIN", "CENTER", "MAX")))
-    # seated at x = 0..20, with a lug at x = 150 dipping 1 mm into the base (far from the mate)
-    child = _box(20, 20, 20, ("MIN", "CENTER", "MIN")) + _box(10, 10, 21, ("MIN", "CENTER", "MIN")).translate((150, 0, -1))
+    # a 170 mm bar seated at x = 10, with a lug at x = 150 dipping 1 mm into the base
+    bar = _box(170, 20, 20, ("MIN", "CENTER", "MIN"))
+    lug = _box(10, 10, 21, ("MIN", "CENTER", "MIN")).translate((150, 0, -1))
     mates = [_seat("child", "base", d=10.0, frame=trans(10, 0, 0), features=False)]
-    found, res = _codes(_model([base, cpart("child", child)], mates))
-    assert len(found) == 1 and "outside every feature region" in found[0].message
+    found, res = _codes(_model([base, cpart("child", bar + lug)], mates))
+    assert not res.passed and len(found) == 1
+    assert "outside every feature region" in found[0].message
     assert found[0].value == pytest.approx(1.0, rel=0.02)
 
 

@@ -206,13 +206,13 @@ def _min_width(p: np.ndarray) -> float:
     if len(p) < 4:
         return float(np.max(p.max(0) - p.min(0))) if len(p) else 0.0
     dirs = [np.eye(3)]
-    try:
-        from scipy.spatial import ConvexHull
+    from scipy.spatial import ConvexHull, QhullError
 
+    try:
         hull = ConvexHull(p)
         q = p[hull.vertices]
         dirs.append(hull.equations[:, :3])
-    except Exception:  # flat or degenerate point set: the axes suffice
+    except QhullError:  # flat or degenerate point set: the axes suffice
         q = p
     n = np.vstack(dirs)
     proj = q @ n.T

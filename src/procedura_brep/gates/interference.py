@@ -118,11 +118,11 @@ def _judge(a: str, b: str, com: Common, mates: list[CompiledMate],
     if not rows:
         return None
     bad = [r for r in rows if not r[0][2]]
-    (d, lim, ok, how, mname), s = max(bad or rows, key=lambda r: r[0][0])
+    (d, lim, _, how, mname), s = max(bad or rows, key=lambda r: r[0][0])
     # a pair is an interference finding when any solid is; otherwise the mate gate's or allowed
     if any(r[0][3] == "interference" for r in bad):
-        (d, lim, ok, how, mname), s = max((r for r in bad if r[0][3] == "interference"),
-                                          key=lambda r: r[0][0])
+        (d, lim, _, how, mname), s = max((r for r in bad if r[0][3] == "interference"),
+                                         key=lambda r: r[0][0])
     return PairOverlap(a, b, d, com.volume, lim, not bad, how, mname, True, com.face_product,
                        np.round(s.lo, 4).tolist(), np.round(s.hi, 4).tolist())
 
@@ -158,7 +158,7 @@ def interference_findings(model: CompiledModel, rows: list[PairOverlap]) -> list
         if r.allowed or r.judged_by != "interference":
             continue
         if r.mate is None:
-            why = (f"outside every feature region of their mates" if any(
+            why = ("outside every feature region of their mates" if any(
                 {m.child, m.parent} == {r.a, r.b} for m in model.mates) else
                 "they are not mate partners, so no fit allows it")
         else:

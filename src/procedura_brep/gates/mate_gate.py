@@ -187,11 +187,8 @@ def region(mate: CompiledMate) -> tuple[float, float]:
     """(radius, half depth) mm of the mate's feature region about its frame (module doc)."""
     o = mate.options or {}
     k = TOL.mate_region_factor * mate.nominal
-    travel = 0.0
-    lim = o.get("limits")
-    if mate.type == "prismatic" and lim:
-        travel = max(abs(float(v)) for v in lim if v is not None) if any(
-            v is not None for v in lim) else 0.0
+    lim = [abs(float(v)) for v in (o.get("limits") or ()) if v is not None]
+    travel = max(lim, default=0.0) if mate.type == "prismatic" else 0.0
     depth = float(o.get("depth") or 0.0) + float(o.get("length") or 0.0) + travel
     return k + _pcd(mate) / 2.0, k + depth
 
