@@ -2,6 +2,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from conftest import cpart
 
 from procedura_brep.config import TOL
 from procedura_brep.gates.mate_gate import mate_gate, penetration_limit
@@ -85,7 +86,6 @@ def _flipped(child_below: bool, parent_above: bool):
     """A 30 mm box child and a base block across the plane z = 0 of the mate frame; ``True``
     puts that part on the wrong side (what a frame whose +Z is flipped does)."""
     from build123d import Align, Box
-    from conftest import cpart
 
     from procedura_brep.program.model import CompiledModel
 
