@@ -98,6 +98,9 @@ def analyse(model: CompiledModel, *, tau: float = TOL.span_tau, contact: float =
     # sort and sweep (geometry.box_pairs): only pieces whose boxes, grown by `contact`, overlap
     cand = box_pairs(np.array([b[0] for b in boxes]).reshape(-1, 3),
                      np.array([b[1] for b in boxes]).reshape(-1, 3), contact)
+    # two passes: the cheap proofs of contact first (same solid, a registered mate, a shared
+    # vertex), so the exact distance is asked only of pairs still in different components
+    exact = []
     for i, j in cand.tolist():
         gi, pi = pieces[i]
         gj, pj = pieces[j]
@@ -109,7 +112,13 @@ def analyse(model: CompiledModel, *, tau: float = TOL.span_tau, contact: float =
                 frozenset((geos[gi].name, geos[gj].name)) in touching
                 or vertices_touch(geos[gi], geos[gj], boxes[i], boxes[j], contact)):
             uf.union(i, j)  # single-piece parts: a registered mate or a shared vertex proves contact
-        elif solid_distance(geos[gi], pi.solid, geos[gj], pj.solid) <= contact:
+        else:
+            exact.append((i, j))
+    for i, j in exact:
+        if uf.find(i) == uf.find(j):
+            continue
+        (gi, pi), (gj, pj) = pieces[i], pieces[j]
+        if solid_distance(geos[gi], pi.solid, geos[gj], pj.solid) <= contact:
             uf.union(i, j)
     groups: dict[int, list[Piece]] = {}
     for i, (_, pc) in enumerate(pieces):
