@@ -129,3 +129,42 @@ def test_hollow_solid_with_inner_void_is_one_body():
     conn = analyse(_model(cpart("hollow", shell)))
     assert len(conn.components) == 1 and conn.n_vis == 0
     assert conn.components[0].volume == pytest.approx(40**3 - 20**3, rel=1e-6)
+
+
+def test_box_pairs_match_brute_force():
+    import itertools
+
+    import numpy as np
+
+    from procedura_brep.gates.geometry import box_pairs
+
+    rng = np.random.default_rng(7)
+    for _ in range(30):
+        n, m = int(rng.integers(1, 50)), int(rng.integers(1, 30))
+        lo, lo2 = rng.uniform(0, 10, (n, 3)), rng.uniform(0, 10, (m, 3))
+        hi, hi2 = lo + rng.uniform(0, 3, (n, 3)), lo2 + rng.uniform(0, 5, (m, 3))
+        g = float(rng.uniform(0, 0.5))
+
+        def near(a, b, c, d):
+            return bool(np.all(a - g <= d) and np.all(c - g <= b))
+
+        one = {(i, j) for i, j in itertools.combinations(range(n), 2)
+               if near(lo[i], hi[i], lo[j], hi[j])}
+        two = {(i, j) for i in range(n) for j in range(m) if near(lo[i], hi[i], lo2[j], hi2[j])}
+        assert {tuple(p) for p in box_pairs(lo, hi, g).tolist()} == one
+        assert {tuple(p) for p in box_pairs(lo, hi, g, lo2, hi2).tolist()} == two
+
+
+def test_a_row_of_separate_boxes_along_y_is_many_pieces_and_no_pairs():
+    from build123d import Box, Compound, Pos
+
+    from procedura_brep.gates.geometry import box_pairs
+
+    row = Compound([Pos(0, 2 * i, 0) * Box(1, 1, 1) for i in range(200)])
+    geo = part_geometry(cpart("row", row))
+    assert len(geo.pieces) == 200 and len({p.solid for p in geo.pieces}) == 200
+    lo = [p.lo for p in geo.pieces]
+    hi = [p.hi for p in geo.pieces]
+    assert len(box_pairs(lo, hi, CONNECT_MM)) == 0
+    assert len(box_pairs(lo, hi, 1.0)) == 199  # neighbours 1 mm apart
+    assert len(analyse(_model(cpart("row", row))).components) == 200
