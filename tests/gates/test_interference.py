@@ -260,3 +260,21 @@ def test_boolean_face_budget_falls_back_to_a_mesh_estimate_with_a_warning(monkey
     assert codes["boolean-budget"].value == 24 * 24  # 4 plates of 6 faces each, both parts
     assert "mate-penetration" in codes and m["penetration_mm"] > m["penetration_limit_mm"]
     clear_caches()
+
+
+def test_a_boolean_that_occt_fails_is_estimated_and_reported_not_raised(monkeypatch):
+    from procedura_brep.gates import common as common_mod
+    from procedura_brep.gates.geometry import clear_caches
+
+    def broken(a, b):
+        raise RuntimeError("Standard_Failure: BOPAlgo")
+
+    monkeypatch.setattr(common_mod, "exact_common", broken)
+    clear_caches()
+    column = cpart("column", _cyl(20, 300))
+    handle = cpart("handle", _box(80, 10, 10), trans(17, -5, 150))
+    report = check_model(_model([column, handle]))
+    codes = {f.code: f for f in report.findings}
+    assert codes["boolean-budget"].severity == "warning" and "OCCT failed" in codes["boolean-budget"].message
+    assert codes["interference"].value > TOL.penetration_slack_mm  # the estimate still catches it
+    clear_caches()

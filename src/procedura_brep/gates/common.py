@@ -8,7 +8,8 @@ parts' digests.
 plates: 25 plates 3.4 s, 100 plates 441 s). When ``faces(a) * faces(b)`` exceeds
 ``TOL.boolean_face_budget`` the exact common is skipped and a mesh estimate is used instead
 (:func:`mesh_estimate`); the result says so (``exact=False``) and the gates add a
-``boolean-budget`` warning naming the pair, the product and the budget.
+``boolean-budget`` warning naming the pair, the product and the budget. A boolean that OCCT
+fails (or raises on) is estimated the same way, with a warning saying so.
 
 **Depth** of one common solid ``s`` (mm) is its *thickness*, how far one part reaches into the
 other:
@@ -45,6 +46,8 @@ log = logging.getLogger(__name__)
 
 #: Common solids smaller than this (mm^3) are boolean noise, not interference.
 MIN_COMMON_MM3: float = 1e-9
+#: ``Common.face_product`` of a pair whose exact common OCCT could not compute (estimated).
+FAILED: int = -1
 
 _COMMON: LRU = LRU()
 _FACES: LRU = LRU()
@@ -152,19 +155,26 @@ def common(ga: PartGeometry, shape_a: Any, gb: PartGeometry, shape_b: Any) -> Co
         log.info("common %s & %s skipped: face product %d > budget %d; mesh estimate",
                  ga.name, gb.name, product, TOL.boolean_face_budget)
         return _COMMON.put(key, Common([], False, product, mesh_estimate(ga, gb)))
-    return _COMMON.put(key, Common(exact_common(shape_a, shape_b), True, product))
+    try:
+        solids = exact_common(shape_a, shape_b)
+    except Exception as exc:  # OCCT raised (a broken solid): estimate instead, never crash a gate
+        log.warning("common %s & %s failed in OCCT (%s); mesh estimate", ga.name, gb.name, exc)
+        return _COMMON.put(key, Common([], False, FAILED, mesh_estimate(ga, gb)))
+    if solids is None:
+        return _COMMON.put(key, Common([], False, FAILED, mesh_estimate(ga, gb)))
+    return _COMMON.put(key, Common(solids, True, product))
 
 
-def exact_common(shape_a: Any, shape_b: Any) -> list[CommonSolid]:
-    """The solids of the OCCT common of two located shapes (no budget, no cache)."""
+def exact_common(shape_a: Any, shape_b: Any) -> list[CommonSolid] | None:
+    """The solids of the OCCT common of two located shapes (no budget, no cache); None when
+    OCCT reports the boolean not done."""
     from OCP.BRepAlgoAPI import BRepAlgoAPI_Common
 
     from .. import kernel
 
     op = BRepAlgoAPI_Common(shape_a, shape_b)
     if not op.IsDone():
-        log.warning("boolean common failed; overlap taken as empty")
-        return []
+        return None
     out = []
     for s in _solids(op.Shape()):
         vol = abs(kernel.volume(s))

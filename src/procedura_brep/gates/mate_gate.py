@@ -238,7 +238,7 @@ def penetration_depth(child_shape: Any, parent_shape: Any, frame: np.ndarray) ->
     budget, no cache; see :mod:`.common`)."""
     from .common import exact_common
 
-    return max((s.depth(frame) for s in exact_common(child_shape, parent_shape)), default=0.0)
+    return max((s.depth(frame) for s in exact_common(child_shape, parent_shape) or []), default=0.0)
 
 
 def side_of(geo: PartGeometry, frame: np.ndarray) -> float:
@@ -326,8 +326,7 @@ def mate_findings(mate: CompiledMate, m: MateMeasure, hint: str = "") -> list[Fi
             part=mate.child, mate=mate.name, line=mate.line, value=m.area_mm2,
             limit=m.area_limit_mm2))
     if not m.clean:
-        est = "" if m.exact else (f" (mesh estimate: the exact boolean was skipped, face product "
-                                  f"{m.face_product} > budget {TOL.boolean_face_budget})")
+        est = "" if m.exact else " (a mesh estimate: the exact boolean was not computed)"
         advice = hint if both and hint else (
             f"move the geometry out of {mate.parent} or fix frame {mate.child_frame}")
         out.append(Finding(
@@ -346,10 +345,11 @@ def mate_findings(mate: CompiledMate, m: MateMeasure, hint: str = "") -> list[Fi
 def budget_finding(a: str, b: str, product: int, *, mate: str | None = None,
                    line: int | None = None) -> Finding:
     """The warning that the exact common of ``a`` and ``b`` was skipped for its face budget."""
+    why = (f"face product {product} > budget {TOL.boolean_face_budget} (config "
+           f"TOL.boolean_face_budget)" if product >= 0 else "OCCT failed on it (check both solids)")
     return Finding(
         "boolean-budget",
-        f"the exact common of {a} and {b} was not computed: face product {product} > budget "
-        f"{TOL.boolean_face_budget} (config TOL.boolean_face_budget); their overlap is a mesh "
+        f"the exact common of {a} and {b} was not computed: {why}; their overlap is a mesh "
         f"estimate. Fewer faces per part (fuse plates, fewer holes) make it exact",
         part=a, mate=mate, line=line, value=float(product),
         limit=float(TOL.boolean_face_budget), severity="warning")
