@@ -157,7 +157,7 @@ def common(ga: PartGeometry, shape_a: Any, gb: PartGeometry, shape_b: Any) -> Co
         return _COMMON.put(key, Common([], False, product, mesh_estimate(ga, gb)))
     try:
         solids = exact_common(shape_a, shape_b)
-    except Exception as exc:  # OCCT raised (a broken solid): estimate instead, never crash a gate
+    except Exception as exc:  # noqa: BLE001  OCCT raised (a broken solid): estimate, never crash
         log.warning("common %s & %s failed in OCCT (%s); mesh estimate", ga.name, gb.name, exc)
         return _COMMON.put(key, Common([], False, FAILED, mesh_estimate(ga, gb)))
     if solids is None:
