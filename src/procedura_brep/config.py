@@ -22,9 +22,21 @@ class Tolerances:
             enough to bridge ISO 286 fit clearances (tens of micrometres).
         bearing_angle_deg: mate gate: child faces within this angle of -Z of the mate frame
             (and parent faces of +Z) are bearing faces.
-        penetration_fill_box: mate gate: an interference solid filling at least this fraction
-            of its mate-frame box is block-like (a gouge: depth = its smallest side); thinner
-            ones are fit rings (depth = wall thickness 2V/A).
+        bearing_radius_factor: mate gate: registration area counts only within
+            ``bearing_radius_factor * d + pcd / 2`` of the mate axis (pcd: the bolt circle of a
+            bolt_pattern or flange, else 0), so a part slid along its parent's face does not
+            register.
+        mate_region_factor: a mate's feature region, in its frame: ``|xy| <= k d + pcd / 2``,
+            ``|z| <= k d + depth + length + travel`` with k this factor; only a common solid
+            reaching into it may be allowed by the mate's fit (interference gate).
+        boolean_face_budget: exact commons (mate and interference gates, B3) are skipped when
+            faces(a) * faces(b) exceeds this; a mesh estimate and a warning replace them.
+        common_deflection_rel: a common solid is meshed for its depth at this fraction of its
+            smallest box side (between common_deflection_min_mm and mesh_linear_mm).
+        common_deflection_min_mm: the finest such deflection.
+        mesh_estimate_samples: surface samples per part in the over-budget mesh estimate.
+        part_piece_findings: a part with detached pieces gets at most this many findings
+            naming pieces (then one counting the rest).
         mesh_linear_mm: tessellation linear deflection floor: every part is meshed with
             ``max(mesh_linear_mm, mesh_linear_rel * diagonal of its bounding box)``.
         mesh_linear_rel: linear deflection as a fraction of the part's bbox diagonal; parts up
@@ -81,7 +93,13 @@ class Tolerances:
     contact_mm: float = 1e-3
     connect_mm: float = 0.05
     bearing_angle_deg: float = 30.0
-    penetration_fill_box: float = 0.5
+    bearing_radius_factor: float = 1.0
+    mate_region_factor: float = 2.0
+    boolean_face_budget: int = 20000
+    common_deflection_rel: float = 0.05
+    common_deflection_min_mm: float = 1e-4
+    mesh_estimate_samples: int = 50000
+    part_piece_findings: int = 8
     mesh_linear_mm: float = 0.1
     mesh_linear_rel: float = 1e-4
     mesh_angular_rad: float = 0.35

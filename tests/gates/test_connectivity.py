@@ -6,7 +6,7 @@ import pytest
 from conftest import cpart
 
 from procedura_brep.gates.connectivity import analyse, connectivity_gate
-from procedura_brep.gates.geometry import part_geometry
+from procedura_brep.gates.geometry import CONNECT_MM, part_geometry
 from procedura_brep.mates.placement import trans
 from procedura_brep.program.model import CompiledModel
 
@@ -52,8 +52,15 @@ def test_face_to_face_parts_are_connected():
 
 
 def test_fit_clearance_counts_as_contact(make_peg):
-    model = make_peg(10.0, "clearance")
+    # lifted 0.1 mm: the shoulder and the peg's tip are clear (0.1 mm > CONNECT_MM, and the tip
+    # sits over the socket's relief), so the only contact left is the peg's wall across the
+    # H7/g6 radial clearance (8.5 um per side at d = 10)
+    model = make_peg(10.0, "clearance", lift=0.1)
+    gap = model.mates[0].fit["offset"]
+    assert 0 < gap < CONNECT_MM
     assert len(analyse(model).components) == 1
+    # the same fixture falls apart once contact is tighter than the clearance: this test can fail
+    assert len(analyse(model, contact=gap / 2).components) == 2
 
 
 def test_part_of_two_disjoint_solids_is_two_pieces():
@@ -122,3 +129,42 @@ def test_hollow_solid_with_inner_void_is_one_body():
     conn = analyse(_model(cpart("hollow", shell)))
     assert len(conn.components) == 1 and conn.n_vis == 0
     assert conn.components[0].volume == pytest.approx(40**3 - 20**3, rel=1e-6)
+
+
+def test_box_pairs_match_brute_force():
+    import itertools
+
+    import numpy as np
+
+    from procedura_brep.gates.geometry import box_pairs
+
+    rng = np.random.default_rng(7)
+    for _ in range(30):
+        n, m = int(rng.integers(1, 50)), int(rng.integers(1, 30))
+        lo, lo2 = rng.uniform(0, 10, (n, 3)), rng.uniform(0, 10, (m, 3))
+        hi, hi2 = lo + rng.uniform(0, 3, (n, 3)), lo2 + rng.uniform(0, 5, (m, 3))
+        g = float(rng.uniform(0, 0.5))
+
+        def near(a, b, c, d):
+            return bool(np.all(a - g <= d) and np.all(c - g <= b))
+
+        one = {(i, j) for i, j in itertools.combinations(range(n), 2)
+               if near(lo[i], hi[i], lo[j], hi[j])}
+        two = {(i, j) for i in range(n) for j in range(m) if near(lo[i], hi[i], lo2[j], hi2[j])}
+        assert {tuple(p) for p in box_pairs(lo, hi, g).tolist()} == one
+        assert {tuple(p) for p in box_pairs(lo, hi, g, lo2, hi2).tolist()} == two
+
+
+def test_a_row_of_separate_boxes_along_y_is_many_pieces_and_no_pairs():
+    from build123d import Box, Compound, Pos
+
+    from procedura_brep.gates.geometry import box_pairs
+
+    row = Compound([Pos(0, 2 * i, 0) * Box(1, 1, 1) for i in range(200)])
+    geo = part_geometry(cpart("row", row))
+    assert len(geo.pieces) == 200 and len({p.solid for p in geo.pieces}) == 200
+    lo = [p.lo for p in geo.pieces]
+    hi = [p.hi for p in geo.pieces]
+    assert len(box_pairs(lo, hi, CONNECT_MM)) == 0
+    assert len(box_pairs(lo, hi, 1.0)) == 199  # neighbours 1 mm apart
+    assert len(analyse(_model(cpart("row", row))).components) == 200

@@ -1,4 +1,5 @@
-"""Deterministic gates on compiled models: compile feedback, mate, connectivity, finish, metrics.
+"""Deterministic gates on compiled models: compile feedback, mate, pieces, interference,
+connectivity, finish, metrics.
 
 Import-light: names resolve lazily (PEP 562), and no submodule imports build123d; OCP loads only
 when a gate actually measures geometry.
@@ -7,6 +8,8 @@ Public API::
 
     check_model(model, source=None) -> CheckReport          # every gate + metrics, .as_dict()
     mate_gate(model) -> (list[Finding], GateResult)
+    pieces_gate(model) -> (list[Finding], GateResult)            # detached pieces per part
+    interference_gate(model) -> (list[Finding], GateResult)      # every pair of parts
     connectivity_gate(model, baseline=None) -> (list[Finding], GateResult)
     finish_gate(model=None, source=None) -> (list[Finding], GateResult)
     mesh_metrics(model) -> dict
@@ -22,6 +25,8 @@ from typing import Any
 _LAZY = {
     "check_model": ".check", "CheckReport": ".check",
     "mate_gate": ".mate_gate", "MateMeasure": ".mate_gate", "measure": ".mate_gate",
+    "pieces_gate": ".pieces", "part_pieces": ".pieces",
+    "interference_gate": ".interference", "scan": ".interference", "PairOverlap": ".interference",
     "connectivity_gate": ".connectivity", "analyse": ".connectivity", "Connectivity": ".connectivity",
     "finish_gate": ".finish",
     "mesh_metrics": ".metrics",

@@ -13,12 +13,14 @@ from ..config import TOL
 from ..program.model import CompiledModel, Finding
 from .connectivity import analyse, floater_findings
 from .feedback import format_feedback
+from .interference import interference_gate
 from .mate_gate import mate_gate
 from .metrics import mesh_metrics
+from .pieces import pieces_gate
 from .policy import GateResult, decide, result
 
 #: Version of the report layout below; bump when a field changes meaning.
-REPORT_VERSION: int = 1
+REPORT_VERSION: int = 2
 
 
 @dataclass
@@ -28,7 +30,8 @@ class CheckReport:
     Attributes:
         model: model name.
         passed: no error finding in any gate (compile findings included).
-        gates: one :class:`GateResult` per gate, in order compile, mate, connectivity.
+        gates: one :class:`GateResult` per gate, in order compile, mate, pieces, interference,
+            connectivity.
         metrics: :func:`~procedura_brep.gates.metrics.mesh_metrics`.
         feedback: every finding formatted for the model (empty when clean).
         timings: seconds per stage.
@@ -62,6 +65,8 @@ class CheckReport:
             "n_vis": conn.get("n_vis"),
             "verdicts": {g.gate: g.passed for g in self.gates},
             "mates": mates,
+            "pieces": self.gate("pieces").measured,
+            "interference": self.gate("interference").measured,
             "connectivity": conn,
             "metrics": self.metrics,
             "triangles_per_part": self.metrics.get("triangles_per_part", {}),
@@ -72,7 +77,7 @@ class CheckReport:
 
 
 def check_model(model: CompiledModel, source: str | None = None) -> CheckReport:
-    """Run the compile, mate and connectivity gates and the mesh metrics on ``model``.
+    """Run the compile, mate, pieces, interference and connectivity gates and the mesh metrics.
 
     Args:
         model: a compiled model (its own ``findings`` are the compile gate's).
@@ -88,6 +93,12 @@ def check_model(model: CompiledModel, source: str | None = None) -> CheckReport:
     _, mate_res = mate_gate(model)
     timings["mate"] = time.perf_counter() - t0
     t1 = time.perf_counter()
+    _, pieces_res = pieces_gate(model)
+    timings["pieces"] = time.perf_counter() - t1
+    t1 = time.perf_counter()
+    _, inter_res = interference_gate(model)
+    timings["interference"] = time.perf_counter() - t1
+    t1 = time.perf_counter()
     # a mate registered within its band (<= the contact distance) proves its two parts touch
     touching = frozenset(frozenset((m.child, m.parent)) for m in model.mates
                          if (mate_res.measured.get(m.name) or {}).get("area_mm2", 0.0) > 0.0
@@ -99,7 +110,7 @@ def check_model(model: CompiledModel, source: str | None = None) -> CheckReport:
     t2 = time.perf_counter()
     metrics = mesh_metrics(model, conn=conn)
     timings["metrics"] = time.perf_counter() - t2
-    gates = [compile_res, mate_res, conn_res]
+    gates = [compile_res, mate_res, pieces_res, inter_res, conn_res]
     findings = [f for g in gates for f in g.findings]
     timings["total"] = time.perf_counter() - t0
     return CheckReport(model.name, decide(findings), gates, metrics,

@@ -4,7 +4,7 @@ Pieces are the connected pieces of each part's welded tessellation (union-find o
 vertices, so a part that is two disjoint solids is two pieces; the shells of one solid, such as
 an inner void, are joined since a solid is one body). Two pieces join when their exact
 B-rep solids are within :data:`~procedura_brep.gates.geometry.CONNECT_MM`: bounding boxes grown by
-that distance are checked first (x-sorted sweep), then a cheap positive test (two mesh vertices,
+that distance are checked first (a sort-and-sweep along the most spread axis, near-linear), then a cheap positive test (two mesh vertices,
 which lie on the exact surfaces, within the distance, for single-piece parts), and only then
 ``BRepExtrema_DistShapeShape``, whose result is cached by the two parts' digests. Then::
 
@@ -22,7 +22,7 @@ import numpy as np
 
 from ..config import TOL
 from ..program.model import CompiledModel, Finding
-from .geometry import CONNECT_MM, Piece, boxes_near, part_geometry, solid_distance, vertices_touch
+from .geometry import CONNECT_MM, Piece, box_pairs, part_geometry, solid_distance, vertices_touch
 from .policy import GateResult, result
 
 
@@ -95,24 +95,31 @@ def analyse(model: CompiledModel, *, tau: float = TOL.span_tau, contact: float =
     pieces: list[tuple[int, Piece]] = [(g, pc) for g, geo in enumerate(geos) for pc in geo.pieces]
     uf = _UF(len(pieces))
     boxes = [(pc.lo, pc.hi) for _, pc in pieces]
-    # sweep along x: only pieces whose x-intervals overlap (grown by `contact`) are compared
-    order = sorted(range(len(pieces)), key=lambda i: boxes[i][0][0])
-    for n, i in enumerate(order):
+    # sort and sweep (geometry.box_pairs): only pieces whose boxes, grown by `contact`, overlap
+    cand = box_pairs(np.array([b[0] for b in boxes]).reshape(-1, 3),
+                     np.array([b[1] for b in boxes]).reshape(-1, 3), contact)
+    # two passes: the cheap proofs of contact first (same solid, a registered mate, a shared
+    # vertex), so the exact distance is asked only of pairs still in different components
+    exact = []
+    for i, j in cand.tolist():
         gi, pi = pieces[i]
-        for j in order[n + 1:]:
-            if boxes[j][0][0] > boxes[i][1][0] + contact:
-                break
-            gj, pj = pieces[j]
-            if uf.find(i) == uf.find(j) or not boxes_near(boxes[i], boxes[j], contact):
-                continue
-            if gi == gj and pi.solid == pj.solid:
-                uf.union(i, j)  # shells of one solid (e.g. an inner void) are one body
-            elif len(geos[gi].pieces) == 1 and len(geos[gj].pieces) == 1 and (
-                    frozenset((geos[gi].name, geos[gj].name)) in touching
-                    or vertices_touch(geos[gi], geos[gj], boxes[i], boxes[j], contact)):
-                uf.union(i, j)  # single-piece parts: a registered mate or a shared vertex proves contact
-            elif solid_distance(geos[gi], pi.solid, geos[gj], pj.solid) <= contact:
-                uf.union(i, j)
+        gj, pj = pieces[j]
+        if uf.find(i) == uf.find(j):
+            continue
+        if gi == gj and pi.solid == pj.solid:
+            uf.union(i, j)  # shells of one solid (e.g. an inner void) are one body
+        elif len(geos[gi].pieces) == 1 and len(geos[gj].pieces) == 1 and (
+                frozenset((geos[gi].name, geos[gj].name)) in touching
+                or vertices_touch(geos[gi], geos[gj], boxes[i], boxes[j], contact)):
+            uf.union(i, j)  # single-piece parts: a registered mate or a shared vertex proves contact
+        else:
+            exact.append((i, j))
+    for i, j in exact:
+        if uf.find(i) == uf.find(j):
+            continue
+        (gi, pi), (gj, pj) = pieces[i], pieces[j]
+        if solid_distance(geos[gi], pi.solid, geos[gj], pj.solid) <= contact:
+            uf.union(i, j)
     groups: dict[int, list[Piece]] = {}
     for i, (_, pc) in enumerate(pieces):
         groups.setdefault(uf.find(i), []).append(pc)

@@ -108,9 +108,14 @@ _DIST: LRU = LRU()
 
 
 def clear_caches() -> None:
-    """Forget every cached tessellation and distance (tests, memory pressure)."""
+    """Forget every cached tessellation, distance, common, piece grouping and mate measure."""
+    from . import common, mate_gate, pieces
+
     _PARTS.clear()
     _DIST.clear()
+    common.clear()
+    pieces.clear()
+    mate_gate._MEASURED.clear()
 
 
 def face_components(n_vertices: int, faces: np.ndarray) -> tuple[int, np.ndarray]:
@@ -183,12 +188,20 @@ def part_geometry(part: CompiledPart) -> PartGeometry:
     boxes = [tuple(np.array(c) for c in kernel.bbox(s, optimal=False)) for s in solids]
     n, labels = face_components(len(v), f)
     pieces: list[Piece] = []
-    for i in range(n):
-        fi = f[labels == i]
-        pts = v[np.unique(fi)]
-        lo, hi = pts.min(axis=0), pts.max(axis=0)
-        pieces.append(Piece(part.name, i, _solid_of(lo, hi, boxes), lo, hi,
-                            signed_volume(v, fi), int(len(fi))))
+    if n:
+        # group faces by piece with one sort (linear in faces, not pieces x faces)
+        order = np.argsort(labels, kind="stable")
+        starts = np.searchsorted(labels[order], np.arange(n + 1))
+        tri = v[f]
+        plo, phi = tri.min(axis=1), tri.max(axis=1)
+        vol = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])) / 6.0
+        los = np.array([plo[order[starts[i]:starts[i + 1]]].min(axis=0) for i in range(n)])
+        his = np.array([phi[order[starts[i]:starts[i + 1]]].max(axis=0) for i in range(n)])
+        owner = _solids_of(los, his, boxes)
+        for i in range(n):
+            idx = order[starts[i]:starts[i + 1]]
+            pieces.append(Piece(part.name, i, int(owner[i]), los[i], his[i],
+                                float(vol[idx].sum()), int(len(idx))))
     if len(v):
         lo, hi = v.min(axis=0), v.max(axis=0)
     else:
@@ -198,12 +211,75 @@ def part_geometry(part: CompiledPart) -> PartGeometry:
     return _PARTS.put(key, geo)
 
 
-def _solid_of(lo: np.ndarray, hi: np.ndarray, boxes: list[Box]) -> int:
-    """The solid whose (loose) bbox best contains the piece box."""
-    if len(boxes) == 1:
-        return 0
-    out = [float(np.maximum(b[0] - lo, 0).sum() + np.maximum(hi - b[1], 0).sum()) for b in boxes]
-    return int(np.argmin(out))
+def _solids_of(lo: np.ndarray, hi: np.ndarray, boxes: list[Box]) -> np.ndarray:
+    """Per piece box, the solid whose (loose) bbox best contains it (near-linear: box sweep)."""
+    if len(boxes) <= 1:
+        return np.zeros(len(lo), dtype=np.int64)
+    slo = np.array([b[0] for b in boxes])
+    shi = np.array([b[1] for b in boxes])
+    out = np.zeros(len(lo), dtype=np.int64)
+    best = np.full(len(lo), np.inf)
+    pairs = box_pairs(lo, hi, 0.0, slo, shi)
+    if len(pairs):
+        i, j = pairs[:, 0], pairs[:, 1]
+        score = (np.maximum(slo[j] - lo[i], 0).sum(1) + np.maximum(hi[i] - shi[j], 0).sum(1))
+        order = np.lexsort((score, i))
+        first = np.unique(i[order], return_index=True)[1]
+        out[i[order][first]] = j[order][first]
+        best[i[order][first]] = score[order][first]
+    return out
+
+
+def box_pairs(lo: np.ndarray, hi: np.ndarray, gap: float, lo2: np.ndarray | None = None,
+              hi2: np.ndarray | None = None) -> np.ndarray:
+    """Index pairs of boxes that overlap once grown by ``gap`` (sort and sweep, output-sensitive).
+
+    With one set, returns ``(i, j)`` with ``i < j``; with a second set (``lo2``, ``hi2``), pairs
+    ``(i in set 1, j in set 2)``. The sweep runs along the axis where the boxes are most spread
+    out relative to their size, so boxes in a row along any axis cost O(n log n + pairs).
+    """
+    lo, hi = np.asarray(lo, float).reshape(-1, 3), np.asarray(hi, float).reshape(-1, 3)
+    two = lo2 is not None
+    blo = np.asarray(lo2, float).reshape(-1, 3) if two else lo
+    bhi = np.asarray(hi2, float).reshape(-1, 3) if two else hi
+    if not len(lo) or not len(blo):
+        return np.zeros((0, 2), dtype=np.int64)
+    allc = np.vstack([lo + hi, blo + bhi]) / 2.0
+    size = np.vstack([hi - lo, bhi - blo]).mean(axis=0) + gap
+    axis = int(np.argmax((allc.max(0) - allc.min(0)) / np.maximum(size, 1e-12)))
+    out: list[np.ndarray] = []
+
+    def emit(alo: np.ndarray, ahi: np.ndarray, clo: np.ndarray, chi: np.ndarray,
+             swap: bool, strict: bool) -> None:
+        # pairs (a, c) where c's start lies in a's grown interval along the axis
+        order = np.argsort(clo[:, axis], kind="stable")
+        keys = clo[order, axis]
+        first = np.searchsorted(keys, alo[:, axis] - gap, side="right" if strict else "left")
+        last = np.searchsorted(keys, ahi[:, axis] + gap, side="right")
+        for i in np.nonzero(last > first)[0]:
+            cand = order[first[i]:last[i]]
+            ok = np.all(clo[cand] - gap <= ahi[i], axis=1) & np.all(alo[i] - gap <= chi[cand], axis=1)
+            sel = cand[ok]
+            if len(sel):
+                col = np.full(len(sel), i)
+                out.append(np.stack([sel, col] if swap else [col, sel], 1))
+
+    if two:
+        emit(lo, hi, blo, bhi, False, False)   # set-2 boxes starting inside a set-1 box
+        emit(blo, bhi, lo, hi, True, True)     # set-1 boxes starting strictly inside a set-2 box
+        if not out:
+            return np.zeros((0, 2), dtype=np.int64)
+        return np.unique(np.vstack(out).astype(np.int64), axis=0)
+    order = np.argsort(lo[:, axis], kind="stable")
+    keys = lo[order, axis]
+    last = np.searchsorted(keys, hi[order, axis] + gap, side="right")
+    for k in np.nonzero(last > np.arange(len(order)) + 1)[0]:
+        i, cand = order[k], order[k + 1:last[k]]
+        ok = np.all(lo[cand] - gap <= hi[i], axis=1) & np.all(lo[i] - gap <= hi[cand], axis=1)
+        sel = cand[ok]
+        if len(sel):
+            out.append(np.sort(np.stack([np.full(len(sel), i), sel], 1), axis=1))
+    return np.vstack(out).astype(np.int64) if out else np.zeros((0, 2), dtype=np.int64)
 
 
 def boxes_near(a: Box, b: Box, gap: float) -> bool:

@@ -7,21 +7,27 @@ For a static mate ``c`` with nominal ``d`` (paper eq. 3)::
 
 **Registration area** ``a(c)`` (mm^2) is the *bearing* area of the seat: the area of the child's
 surface that faces its parent along the mate axis (outward normal within
-``BEARING_ANGLE_DEG`` of ``-Z`` of the mate frame, which points from parent into child) and lies
+``BEARING_ANGLE_DEG`` of ``-Z`` of the mate frame, which points from parent into child), lies
 within ``TOL.registration_band_mm`` of a parent surface facing back (normal within the same cone
-of ``+Z``), measured as the gap along the mate axis. It is computed on the fixed tessellation
-(planar seats, the common case, are exact there), after bounding-box prefilters; the child's
-bearing triangles are subdivided to ``sample_size(d)`` so partial overlaps count by area. Fit walls
-(peg sides, bores) do not count: a peg lifted off its seat keeps its walls inside the socket, and
-must still fail. A hovering part therefore measures ``a = 0``.
+of ``+Z``), measured as the gap along the mate axis, and lies *around the mate*: within
+:func:`bearing_radius` (``TOL.bearing_radius_factor * d + pcd / 2``) of the mate axis, so a part
+slid along a large parent face does not register. Only the child's body counts: a detached piece
+of the child (:mod:`.pieces`, e.g. a seat pad left in its counterbore) bears nothing. It is
+computed on the fixed tessellation (planar seats, the common case, are exact there), after
+bounding-box prefilters; the child's bearing triangles are subdivided to ``sample_size(d)`` so
+partial overlaps count by area. Fit walls (peg sides, bores) do not count: a peg lifted off its
+seat keeps its walls inside the socket, and must still fail. A hovering part measures ``a = 0``.
 
-**Penetration depth** ``delta(c)`` (mm) comes from the exact B-rep common ``child & parent``
-(bounding boxes are checked first: disjoint boxes give 0). For each solid ``s`` of the common,
-expressed in the mate frame: if it fills at least ``FILL_BOX`` of its bounding box (a slab or a
-block: a gouge), its depth is its smallest bbox side; otherwise (a thin tube or shell: a press or
-snap fit's interference ring) its depth is its wall thickness ``2 V / A``. ``delta`` is the max
-over solids. A fit's own interference (press, snap, tight location fits) is allowed through
-``delta_max(fit)``.
+**Penetration depth** ``delta(c)`` (mm) is the largest depth (:mod:`.common`: minimum width, or
+the radial wall of a ring about the mate axis) of the solids of the exact B-rep common
+``child & parent`` that reach into the mate's feature region (:func:`region`); solids elsewhere
+are the interference gate's. A fit's own interference (press, snap, tight location fits) is
+allowed through ``delta_max(fit)``. The boolean is bounded by ``TOL.boolean_face_budget``.
+
+When a mate both hovers and gouges, its frames are usually flipped: the finding says on which
+side of the mate plane each part's body lies (world directions of each frame's +Z) and which
+frame is wrong: the parent's body must lie on the -Z side of its frame, the child's on the +Z
+side, so the two bodies oppose across the plane.
 """
 
 from __future__ import annotations
@@ -35,19 +41,17 @@ import numpy as np
 
 from ..config import TOL
 from ..program.model import CompiledMate, CompiledModel, Finding
+from .common import common
 from .geometry import LRU, PartGeometry, boxes_near, part_geometry
+from .pieces import body_faces
 from .policy import GateResult, result
 
 log = logging.getLogger(__name__)
 
 #: Child faces within this angle of -Z (mate frame) are bearing faces; parent faces likewise of +Z.
 BEARING_ANGLE_DEG: float = TOL.bearing_angle_deg
-#: A common solid filling at least this fraction of its mate-frame bbox is block-like (a gouge).
-FILL_BOX: float = TOL.penetration_fill_box
 #: At most this many area samples per mate (the sample size grows to respect it).
 MAX_SAMPLES: int = 40000
-#: Common solids smaller than this (mm^3) are boolean noise, not penetration.
-MIN_COMMON_MM3: float = 1e-9
 
 _MEASURED: LRU = LRU()
 
@@ -61,6 +65,8 @@ class MateMeasure:
     area_limit_mm2: float
     penetration_mm: float
     penetration_limit_mm: float
+    exact: bool = True
+    face_product: int = 0
 
     @property
     def seated(self) -> bool:
@@ -75,7 +81,7 @@ class MateMeasure:
                 "penetration_mm": round(self.penetration_mm, 6),
                 "penetration_limit_mm": round(self.penetration_limit_mm, 6),
                 "seated": self.seated, "clean": self.clean,
-                "passed": self.seated and self.clean}
+                "passed": self.seated and self.clean, "exact": self.exact}
 
 
 def penetration_limit(fit: dict[str, Any]) -> float:
@@ -163,9 +169,40 @@ def _registered(samples: np.ndarray, ptris: np.ndarray, band: float) -> np.ndarr
     return out
 
 
+def bearing_radius(mate: CompiledMate) -> float:
+    """Radius (mm) about the mate axis within which bearing area counts (module doc)."""
+    return TOL.bearing_radius_factor * mate.nominal + _pcd(mate) / 2.0
+
+
+def _pcd(mate: CompiledMate) -> float:
+    o = mate.options or {}
+    if mate.type == "bolt_pattern":
+        return float(o.get("pcd") or 4.0 * mate.nominal)
+    if mate.type == "flange":
+        return float(o.get("pcd") or 1.5 * mate.nominal)
+    return 0.0
+
+
+def region(mate: CompiledMate) -> tuple[float, float]:
+    """(radius, half depth) mm of the mate's feature region about its frame (module doc)."""
+    o = mate.options or {}
+    k = TOL.mate_region_factor * mate.nominal
+    lim = [abs(float(v)) for v in (o.get("limits") or ()) if v is not None]
+    travel = max(lim, default=0.0) if mate.type == "prismatic" else 0.0
+    depth = float(o.get("depth") or 0.0) + float(o.get("length") or 0.0) + travel
+    return k + _pcd(mate) / 2.0, k + depth
+
+
 def registration_area(child: PartGeometry, parent: PartGeometry, frame: np.ndarray,
-                      nominal: float, *, band: float = TOL.registration_band_mm) -> float:
-    """Bearing area (mm^2) of ``child`` seated on ``parent`` across the mate ``frame`` (world 4x4)."""
+                      nominal: float, *, band: float = TOL.registration_band_mm,
+                      radius: float | None = None, mask: np.ndarray | None = None) -> float:
+    """Bearing area (mm^2) of ``child`` seated on ``parent`` across the mate ``frame`` (world 4x4).
+
+    Args:
+        radius: only child area within this distance of the frame's Z axis counts (None: all).
+        mask: the child triangles that may bear (None: all), e.g. its body without detached
+            pieces.
+    """
     if not len(child.faces) or not len(parent.faces):
         return 0.0
     if not boxes_near((child.lo, child.hi), (parent.lo, parent.hi), band):
@@ -178,6 +215,10 @@ def registration_area(child: PartGeometry, parent: PartGeometry, frame: np.ndarr
     ct, pt = cv[child.faces], pv[parent.faces]
     plo, phi = pv.min(axis=0) - band, pv.max(axis=0) + band
     csel = (cn[:, 2] <= -cos) & np.all(ct.max(axis=1) >= plo, 1) & np.all(ct.min(axis=1) <= phi, 1)
+    if mask is not None:
+        csel &= mask
+    if radius is not None:  # triangles entirely outside the disc cannot contribute
+        csel &= np.all(ct.min(axis=1)[:, :2] <= radius, 1) & np.all(ct.max(axis=1)[:, :2] >= -radius, 1)
     if not csel.any():
         return 0.0
     ct, ca = ct[csel], ca[csel]
@@ -186,84 +227,132 @@ def registration_area(child: PartGeometry, parent: PartGeometry, frame: np.ndarr
     if not psel.any():
         return 0.0
     pts, wts = _samples(ct, ca, sample_size(nominal))
-    return float(wts[_registered(pts, pt[psel], band)].sum())
-
-
-def _common_solids(a: Any, b: Any) -> list[Any]:
-    from OCP.BRepAlgoAPI import BRepAlgoAPI_Common
-    from OCP.TopAbs import TopAbs_SOLID
-    from OCP.TopExp import TopExp_Explorer
-
-    op = BRepAlgoAPI_Common(a, b)
-    if not op.IsDone():
-        log.warning("boolean common failed; penetration taken as 0")
-        return []
-    out = []
-    exp = TopExp_Explorer(op.Shape(), TopAbs_SOLID)
-    while exp.More():
-        out.append(exp.Current())
-        exp.Next()
-    return out
+    keep = _registered(pts, pt[psel], band)
+    if radius is not None:
+        keep &= np.hypot(pts[:, 0], pts[:, 1]) <= radius
+    return float(wts[keep].sum())
 
 
 def penetration_depth(child_shape: Any, parent_shape: Any, frame: np.ndarray) -> float:
-    """Depth (mm) of the exact common ``child & parent``, measured as described in the module doc."""
-    from .. import kernel
+    """Depth (mm) of the exact common ``child & parent`` in the mate ``frame`` (no region, no
+    budget, no cache; see :mod:`.common`)."""
+    from .common import exact_common
 
-    inv = np.linalg.inv(frame)
-    depth = 0.0
-    for s in _common_solids(child_shape, parent_shape):
-        vol = kernel.volume(s)
-        if vol <= MIN_COMMON_MM3:
-            continue
-        lo, hi = kernel.bbox(kernel.located(s, inv))
-        sides = np.maximum(np.subtract(hi, lo), 1e-12)
-        if vol / float(np.prod(sides)) >= FILL_BOX:
-            d = float(sides.min())
-        else:
-            d = 2.0 * vol / max(kernel.area(s), 1e-300)
-        depth = max(depth, d)
-    return depth
+    return max((s.depth(frame) for s in exact_common(child_shape, parent_shape) or []), default=0.0)
+
+
+def side_of(geo: PartGeometry, frame: np.ndarray) -> float:
+    """Signed height (mm) of the part's volume centroid above the plane of ``frame``."""
+    v, f = geo.vertices, geo.faces
+    if not len(f):
+        return 0.0
+    a, b, c = v[f[:, 0]], v[f[:, 1]], v[f[:, 2]]
+    w = np.einsum("ij,ij->i", a, np.cross(b, c))
+    tot = w.sum()
+    cen = ((a + b + c) * w[:, None]).sum(0) / (4.0 * tot) if abs(tot) > 1e-12 else v.mean(0)
+    return float((cen - frame[:3, 3]) @ frame[:3, 2])
 
 
 def measure(model: CompiledModel, mate: CompiledMate) -> MateMeasure:
     """Registration area and penetration of one mate, cached by both parts' digests and the frame."""
     child, parent = model.part(mate.child), model.part(mate.parent)
-    key = (child.digest, parent.digest, np.round(mate.world_frame, 9).tobytes(), mate.nominal,
+    key = (child.digest, parent.digest, getattr(child, "pieces", 1),
+           np.round(mate.world_frame, 9).tobytes(), mate.nominal, mate.type,
+           repr(sorted((mate.options or {}).items())),
            repr(sorted(mate.fit.items())) if mate.fit else "")
     hit = _MEASURED.get(key)
     if hit is not None:
         return MateMeasure(mate.name, *hit)
     cg, pg = part_geometry(child), part_geometry(parent)
-    area = registration_area(cg, pg, mate.world_frame, mate.nominal)
-    depth = 0.0
-    if boxes_near((cg.lo, cg.hi), (pg.lo, pg.hi), 0.0):
-        depth = penetration_depth(child.shape(), parent.shape(), mate.world_frame)
-    vals = (area, area_limit(mate.nominal), depth, penetration_limit(mate.fit or {}))
+    area = registration_area(cg, pg, mate.world_frame, mate.nominal,
+                             radius=bearing_radius(mate), mask=body_faces(child, cg))
+    com = common(cg, child.shape(), pg, parent.shape())
+    rad, half = region(mate)
+    if com.exact:
+        depth = max((s.depth(mate.world_frame) for s in com.solids
+                     if s.touches(mate.world_frame, rad, half)), default=0.0)
+    else:
+        depth = com.estimate_depth
+    vals = (area, area_limit(mate.nominal), depth, penetration_limit(mate.fit or {}),
+            com.exact, com.face_product)
     _MEASURED.put(key, vals)
     return MateMeasure(mate.name, *vals)
 
 
-def mate_findings(mate: CompiledMate, m: MateMeasure) -> list[Finding]:
-    """The findings for one measured mate (empty when it passes)."""
+def _dir(v: np.ndarray) -> str:
+    v = np.round(np.asarray(v, float), 3) + 0.0
+    names = {(0, 0, 1): "+Z", (0, 0, -1): "-Z", (0, 1, 0): "+Y", (0, -1, 0): "-Y",
+             (1, 0, 0): "+X", (-1, 0, 0): "-X"}
+    return names.get(tuple(int(x) for x in v) if np.allclose(v, np.round(v)) else (), "") or \
+        "(" + ", ".join(f"{x:.3g}" for x in v) + ")"
+
+
+def flipped_hint(model: CompiledModel, mate: CompiledMate) -> str:
+    """Which frame's +Z points which way (world) and which one is wrong, for a mate that both
+    hovers and gouges ("" when both bodies lie on their own sides: a plain gouge)."""
+    child, parent = model.part(mate.child), model.part(mate.parent)
+    fz = mate.world_frame[:3, 2]
+    cz = child.world_frame(mate.child_frame)[:3, 2] if mate.child_frame in child.frames else fz
+    pz = parent.world_frame(mate.parent_frame)[:3, 2] if mate.parent_frame in parent.frames else fz
+    hp = side_of(part_geometry(parent), mate.world_frame)
+    hc = side_of(part_geometry(child), mate.world_frame)
+    wrong = [f"{mate.parent}.{mate.parent_frame}"] if hp > 0 else []
+    if hc < 0:
+        wrong.append(f"{mate.child}.{mate.child_frame}")
+    if not wrong:  # both bodies on their own sides: a plain gouge, not a flipped frame
+        return ""
+    blame = f"flip {' and '.join(wrong)}"
+    return (f"the frames look flipped: {mate.parent}.{mate.parent_frame} +Z points world "
+            f"{_dir(pz)} and {mate.parent}'s body lies on its {'+' if hp > 0 else '-'}Z side "
+            f"(must be -Z: a parent frame's +Z points out of the parent); "
+            f"{mate.child}.{mate.child_frame} +Z points world {_dir(cz)} and {mate.child}'s body "
+            f"lies on its {'+' if hc > 0 else '-'}Z side (must be +Z: into the child); the two "
+            f"bodies must oppose across the mate plane: {blame}")
+
+
+def mate_findings(mate: CompiledMate, m: MateMeasure, hint: str = "") -> list[Finding]:
+    """The findings for one measured mate (empty when it passes); ``hint`` (see
+    :func:`flipped_hint`) replaces the generic advice when the mate both hovers and gouges."""
     out = []
+    both = not m.seated and not m.clean
     if not m.seated:
+        advice = hint if both and hint else (
+            f"the part hovers: make its face at frame {mate.child_frame} touch "
+            f"{mate.parent}.{mate.parent_frame} within {bearing_radius(mate):.3g} mm of the mate axis")
         out.append(Finding(
             "mate-registration",
             f"{mate.child} is not seated on {mate.parent}: bearing area {m.area_mm2:.3g} mm^2 < "
-            f"tau_a*d^2 = {m.area_limit_mm2:.3g} mm^2 (d = {mate.nominal:g} mm); the part hovers: "
-            f"make its face at frame {mate.child_frame} touch {mate.parent}.{mate.parent_frame}",
+            f"tau_a*d^2 = {m.area_limit_mm2:.3g} mm^2 (d = {mate.nominal:g} mm); {advice}",
             part=mate.child, mate=mate.name, line=mate.line, value=m.area_mm2,
             limit=m.area_limit_mm2))
     if not m.clean:
+        est = "" if m.exact else " (a mesh estimate: the exact boolean was not computed)"
+        advice = hint if both and hint else (
+            f"move the geometry out of {mate.parent} or fix frame {mate.child_frame}")
         out.append(Finding(
             "mate-penetration",
             f"{mate.child} gouges into {mate.parent}: penetration {m.penetration_mm:.3g} mm > "
-            f"{m.penetration_limit_mm:.3g} mm allowed by fit {mate.fit.get('fit', '?')}; move the "
-            f"geometry out of {mate.parent} or fix frame {mate.child_frame}",
+            f"{m.penetration_limit_mm:.3g} mm allowed by fit {mate.fit.get('fit', '?')}{est}; "
+            f"{advice}",
             part=mate.child, mate=mate.name, line=mate.line, value=m.penetration_mm,
             limit=m.penetration_limit_mm))
+    if not m.exact:
+        out.append(budget_finding(mate.child, mate.parent, m.face_product, mate=mate.name,
+                                  line=mate.line))
     return out
+
+
+def budget_finding(a: str, b: str, product: int, *, mate: str | None = None,
+                   line: int | None = None) -> Finding:
+    """The warning that the exact common of ``a`` and ``b`` was skipped for its face budget."""
+    why = (f"face product {product} > budget {TOL.boolean_face_budget} (config "
+           f"TOL.boolean_face_budget)" if product >= 0 else "OCCT failed on it (check both solids)")
+    return Finding(
+        "boolean-budget",
+        f"the exact common of {a} and {b} was not computed: {why}; their overlap is a mesh "
+        f"estimate. Fewer faces per part (fuse plates, fewer holes) make it exact",
+        part=a, mate=mate, line=line, value=float(product),
+        limit=float(TOL.boolean_face_budget), severity="warning")
 
 
 def mate_gate(model: CompiledModel, *, mates: list[str] | None = None) -> tuple[list[Finding], GateResult]:
@@ -286,5 +375,6 @@ def mate_gate(model: CompiledModel, *, mates: list[str] | None = None) -> tuple[
             continue
         m = measure(model, mate)
         measured[mate.name] = m.as_dict()
-        findings.extend(mate_findings(mate, m))
+        hint = flipped_hint(model, mate) if not m.seated and not m.clean else ""
+        findings.extend(mate_findings(mate, m, hint))
     return findings, result("mate", findings, measured)

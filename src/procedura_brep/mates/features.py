@@ -49,7 +49,9 @@ def press_fit(d: float, fit: Fit, o: dict[str, Any]) -> Halves:
 
 def seat_face(d: float, fit: Fit, o: dict[str, Any]) -> Halves:
     depth = o.get("depth") or max(0.5, 0.08 * d)
-    return Cylinder(fit.shaft / 2, depth, align=TOP), Cylinder(fit.hole / 2, depth, align=TOP)
+    # the counterbore is deeper than the pad (a relief), so the pad alone never bears: the
+    # child's face around it must seat on the parent's face
+    return Cylinder(fit.shaft / 2, depth, align=TOP), Cylinder(fit.hole / 2, depth + _relief(d), align=TOP)
 
 
 def bolt_pattern(d: float, fit: Fit, o: dict[str, Any]) -> Halves:

@@ -12,8 +12,9 @@ Example (a complete two-part program)::
     # === params ===
     base_w = 120.0  # mm, base side
     base_t = 12.0   # mm, base thickness
-    post_d = 20.0   # mm, post diameter: nominal of the post's peg_socket
+    post_d = 20.0   # mm, post diameter
     post_h = 80.0   # mm
+    spigot_d = 12.0  # mm, spigot under the post (smaller: its shoulder seats): nominal of the peg_socket
 
     # === helpers ===
 
@@ -32,7 +33,7 @@ Example (a complete two-part program)::
     frames("post", foot=Location((0, 0, 0)))
 
     # === assembly ===
-    mate("post.foot", "base.top", "peg_socket", nominal="post_d", fit="location")
+    mate("post.foot", "base.top", "peg_socket", nominal="spigot_d", fit="location")
 """
 
 from __future__ import annotations
@@ -43,9 +44,12 @@ from typing import Any, Callable
 from ..errors import MateError, ProgramFormatError
 from .registry import DETAILS, MateDecl, PartDecl, active
 
+#: Most disconnected solids a part may declare (``@part(pieces=N)``).
+MAX_PIECES: int = 1000
 
-def part(*, detail: str = "major", material: str = "steel", description: str = ""
-         ) -> Callable[[Callable[[], Any]], Callable[[], Any]]:
+
+def part(*, detail: str = "major", material: str = "steel", description: str = "",
+         pieces: int = 1) -> Callable[[Callable[[], Any]], Callable[[], Any]]:
     """Register a function as a part. The part's name is the function's name (snake_case).
 
     The function takes no arguments, reads params as globals, and returns one build123d solid
@@ -57,6 +61,8 @@ def part(*, detail: str = "major", material: str = "steel", description: str = "
             (small sub-features such as bolts and knobs).
         material: a key of the material library (``steel``, ``aluminium``, ``rubber`` ...).
         description: one line: what the part is, its size and where it sits.
+        pieces: how many disconnected solids the part is on purpose (default 1); any other
+            detached piece is a gate finding.
 
     Example::
 
@@ -67,12 +73,14 @@ def part(*, detail: str = "major", material: str = "steel", description: str = "
     """
     if detail not in DETAILS:
         raise ProgramFormatError(f"detail {detail!r} is not one of {', '.join(DETAILS)}")
+    if isinstance(pieces, bool) or not isinstance(pieces, int) or not 1 <= pieces <= MAX_PIECES:
+        raise ProgramFormatError(f"pieces={pieces!r} must be an integer in [1, {MAX_PIECES}]")
 
     def register(fn: Callable[[], Any]) -> Callable[[], Any]:
         code = fn.__code__
         end = max((ln for _, _, ln in code.co_lines() if ln), default=code.co_firstlineno)
         active().add_part(PartDecl(fn.__name__, fn, detail, material, description,
-                                   code.co_firstlineno, end))
+                                   code.co_firstlineno, end, pieces))
         return fn
 
     return register

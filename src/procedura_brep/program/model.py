@@ -66,6 +66,7 @@ class CompiledPart:
     lines: tuple[int, int] = (0, 0)
     reads: tuple[str, ...] = ()
     cache_key: str = ""
+    pieces: int = 1
     _shape: Any = field(default=None, repr=False, compare=False)
 
     @property
@@ -171,7 +172,8 @@ def to_json(model: CompiledModel) -> dict[str, Any]:
         "parts": [{"name": p.name, "brep": base64.b64encode(p.brep).decode("ascii"),
                    "placement": _m(p.placement), "frames": {k: _m(v) for k, v in p.frames.items()},
                    "material": p.material, "detail": p.detail, "description": p.description,
-                   "lines": list(p.lines), "reads": list(p.reads), "cache_key": p.cache_key}
+                   "lines": list(p.lines), "reads": list(p.reads), "cache_key": p.cache_key,
+                   "pieces": p.pieces}
                   for p in model.parts],
         "mates": [{**{k: v for k, v in m.__dict__.items() if k != "world_frame"},
                    "world_frame": _m(m.world_frame)} for m in model.mates],
@@ -184,7 +186,8 @@ def from_json(d: dict[str, Any]) -> CompiledModel:
                           frames={k: np.array(v) for k, v in p["frames"].items()},
                           material=p["material"], detail=p["detail"], description=p["description"],
                           lines=tuple(p["lines"]), reads=tuple(p["reads"]),
-                          cache_key=p.get("cache_key", "")) for p in d["parts"]]
+                          cache_key=p.get("cache_key", ""),
+                          pieces=int(p.get("pieces", 1))) for p in d["parts"]]
     mates = [CompiledMate(**{**m, "world_frame": np.array(m["world_frame"])}) for m in d["mates"]]
     return CompiledModel(name=d["name"], params=d["params"], parts=parts, mates=mates,
                          findings=[Finding(**f) for f in d["findings"]], timings=d["timings"])

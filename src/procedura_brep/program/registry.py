@@ -25,6 +25,7 @@ class PartDecl:
     description: str
     line: int
     end_line: int
+    pieces: int = 1
 
 
 @dataclass

@@ -361,7 +361,7 @@ def _serialise(b: _Build, reg: registry.Registry, params: dict[str, Any],
                                   placement=b.world[name], frames=frames, material=decl.material,
                                   detail=decl.detail, description=decl.description,
                                   lines=(decl.line, decl.end_line), reads=_reads(decl, params, reg),
-                                  cache_key=keys.get(name, "")))
+                                  cache_key=keys.get(name, ""), pieces=decl.pieces))
     cms: list[CompiledMate] = []
     for m in mates:
         if "world_frame" not in m:

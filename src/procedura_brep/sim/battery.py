@@ -143,18 +143,25 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
 
 
 def check_b3(model: CompiledModel, art) -> CheckResult:
-    """B3: no two non-adjacent links interpenetrate at rest (exact solids)."""
-    overlaps = contact.rest_overlaps(model, art)
-    deep = [o for o in overlaps if o.depth > TOL.sim_penetration_mm]
-    worst = max(overlaps, key=lambda o: o.depth, default=None)
+    """B3: no two parts interpenetrate at rest beyond what a declared fit allows (exact solids).
+
+    The scan is the interference gate's (:func:`procedura_brep.gates.interference.scan`): every
+    pair of parts, in any links, with the same allowance (a mate's fit, between its own partners,
+    within its feature region) and the same depth measure, so B3 fails exactly where the gate's
+    ``interference`` or the mate gate's ``mate-penetration`` does.
+    """
+    rows = contact.rest_scan(model)
+    bad = [r for r in rows if not r.allowed]
+    worst = max(bad, key=lambda r: r.depth, default=None)
     measured = {"max_depth_mm": worst.depth if worst else 0.0,
-                "pairs": [{"a": o.a, "b": o.b, "volume_mm3": o.volume, "depth_mm": o.depth}
-                          for o in overlaps]}
-    msg = "; ".join(f"parts {o.a!r} (link {art.part_link[o.a]!r}) and {o.b!r} (link "
-                    f"{art.part_link[o.b]!r}) interpenetrate {o.depth:.3g} mm" for o in deep)
-    return CheckResult("B3", "rest-contact scan", not deep, measured,
-                       {"max_depth_mm": TOL.sim_penetration_mm},
-                       msg or "no non-adjacent links interpenetrate at rest")
+                "pairs": [{**r.as_dict(), "link_a": art.part_link.get(r.a),
+                           "link_b": art.part_link.get(r.b)} for r in rows]}
+    msg = "; ".join(f"parts {r.a!r} (link {art.part_link.get(r.a)!r}) and {r.b!r} (link "
+                    f"{art.part_link.get(r.b)!r}) interpenetrate {r.depth:.3g} mm (allowed "
+                    f"{r.limit:.3g} mm)" for r in bad)
+    return CheckResult("B3", "rest-contact scan", not bad, measured,
+                       {"max_depth_mm": worst.limit if worst else TOL.penetration_slack_mm},
+                       msg or "no two parts interpenetrate at rest beyond their fits")
 
 
 def run_battery(source: CompiledModel | str | Path, *, out_dir: str | Path | None = None,

@@ -1,13 +1,14 @@
 """Exact-geometry interference between parts (MuJoCo only sees convex hulls).
 
-Interference of two solids is the OCCT boolean common; its *thickness* is estimated as
-``2 V / S`` (V volume, S surface area of the common solid), which is exact for a thin slab and
-an under-estimate for chunky overlaps. Pairs are prefiltered by bounding boxes.
+At rest (B3) the scan is the interference gate's own (:func:`rest_scan`): every pair of parts,
+the shared bounded common, the same fit allowance. For the B2 sweeps, :func:`exact_overlap`
+measures one posed pair: the OCCT boolean common, its *thickness* estimated as ``2 V / S`` (V
+volume, S surface area of the common solid), exact for a thin slab and an under-estimate for
+chunky overlaps.
 """
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass
 
 from .. import kernel
@@ -56,16 +57,15 @@ def adjacent_links(art: Articulation) -> set[frozenset[str]]:
     return {frozenset((j.parent, j.child)) for j in art.joints}
 
 
-def rest_overlaps(model: CompiledModel, art: Articulation) -> list[Overlap]:
-    """Interference between parts of non-adjacent links at rest."""
-    adj = adjacent_links(art)
-    shapes = {p.name: p.shape() for p in model.parts}
-    out = []
-    for a, b in itertools.combinations([p.name for p in model.parts], 2):
-        la, lb = art.part_link[a], art.part_link[b]
-        if la == lb or frozenset((la, lb)) in adj:
-            continue
-        o = overlap(a, shapes[a], b, shapes[b])
-        if o.volume > 0:
-            out.append(o)
-    return out
+def rest_scan(model: CompiledModel) -> list:
+    """Every overlapping pair of parts at rest, judged by the interference gate's rule
+    (:func:`procedura_brep.gates.interference.scan`: same pairs, same fit allowance, same
+    bounded common), so B3 and the gate agree."""
+    from ..gates.interference import scan
+
+    return scan(model)
+
+
+def rest_overlaps(model: CompiledModel, art: Articulation | None = None) -> list[Overlap]:
+    """The pairs at rest that no declared fit allows (any links, adjacent or not)."""
+    return [Overlap(r.a, r.b, r.volume or 0.0, r.depth) for r in rest_scan(model) if not r.allowed]

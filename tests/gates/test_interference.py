@@ -1,0 +1,280 @@
+"""Interference gate probes (issue 11.1): a planted overlap is caught, its clean twin passes."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import cpart, peg_model
+
+from procedura_brep.config import TOL
+from procedura_brep.gates import check_model
+from procedura_brep.gates.interference import interference_gate, scan
+from procedura_brep.mates.fits import iso286
+from procedura_brep.mates.placement import trans
+from procedura_brep.program.model import CompiledMate, CompiledModel
+
+
+def _box(x, y, z, align=("MIN", "MIN", "MIN")):
+    from build123d import Align, Box
+    return Box(x, y, z, align=tuple(getattr(Align, a) for a in align))
+
+
+def _cyl(r, h):
+    from build123d import Align, Cylinder
+    return Cylinder(r, h, align=(Align.CENTER, Align.CENTER, Align.MIN))
+
+
+def _model(parts, mates=()):
+    return CompiledModel(name="m", params={}, parts=list(parts), mates=list(mates))
+
+
+def _seat(child, parent, *, frame=None, fit="clearance", d=10.0, mtype="seat_face", name=None,
+          kind="static", **options):
+    f = iso286(d, fit)
+    return CompiledMate(name=name or f"{child}_on_{parent}", type=mtype, kind=kind, child=child,
+                        child_frame="origin", parent=parent, parent_frame="origin",
+                        nominal_name="d", nominal=d, fit=f.as_dict(), options=dict(options),
+                        dof={}, world_frame=np.eye(4) if frame is None else frame, line=7)
+
+
+def _codes(model):
+    findings, res = interference_gate(model)
+    return [f for f in findings if f.code == "interference"], res
+
+
+def test_handle_swept_into_the_column_is_caught():
+    column = cpart("column", _cyl(20, 300))
+    # a 10 x 10 handle whose end is sunk 3 mm into the column's side (x = 20)
+    handle = cpart("handle", _box(80, 10, 10), trans(17, -5, 150))
+    found, res = _codes(_model([column, handle]))
+    assert not res.passed and len(found) == 1
+    f = found[0]
+    assert f.part == "handle" and "column" in f.message and "not mate partners" in f.message
+    assert f.value == pytest.approx(3.0, rel=0.02) and f.limit == TOL.penetration_slack_mm
+    assert "volume" in f.message and "mm^3" in f.message
+    # clean twin: the handle's end face touches the column's flat (a box column) face to face
+    col2 = cpart("column", _box(40, 40, 300, ("CENTER", "CENTER", "MIN")))
+    found, res = _codes(_model([col2, cpart("handle", _box(80, 10, 10), trans(20, -5, 150))]))
+    assert res.passed and not found
+
+
+def test_collar_sunk_into_its_parent_links_other_part_is_caught():
+    # base <- column (seat), column <- collar (seat); the collar reaches 2 mm into the base
+    base = cpart("base", _box(200, 200, 20, ("CENTER", "CENTER", "MAX")))
+    column = cpart("column", _cyl(15, 200))
+    ring = _cyl(40, 20) - _cyl(15, 20)
+    mates = [_seat("column", "base", d=20.0), _seat("collar", "column", d=20.0,
+                                                    frame=trans(0, 0, 100))]
+    sunk = cpart("collar", ring, trans(0, 0, -2))
+    found, res = _codes(_model([base, column, sunk], mates))
+    assert [(f.part, f.value) for f in found] == [("collar", pytest.approx(2.0, rel=0.02))]
+    assert "base" in found[0].message
+    clean = cpart("collar", ring, trans(0, 0, 1))
+    found, res = _codes(_model([base, column, clean], mates))
+    assert res.passed and not found
+
+
+def test_two_sibling_bolts_at_the_same_spot_are_caught():
+    plate = cpart("plate", _box(100, 100, 10, ("CENTER", "CENTER", "MAX")))
+    bolt = _cyl(4, 30)
+    a = cpart("bolt_a", bolt, trans(20, 0, 0))
+    b = cpart("bolt_b", bolt, trans(20, 0, 0))
+    mates = [_seat("bolt_a", "plate", d=8.0, frame=trans(20, 0, 0)),
+             _seat("bolt_b", "plate", d=8.0, frame=trans(20, 0, 0), name="bolt_b_on_plate")]
+    found, res = _codes(_model([plate, a, b], mates))
+    assert len(found) == 1 and {"bolt_a", "bolt_b"} <= set(found[0].message.split())
+    assert found[0].value == pytest.approx(8.0, rel=0.02)
+    b2 = cpart("bolt_b", bolt, trans(-20, 0, 0))
+    mates[1].world_frame = trans(-20, 0, 0)
+    found, res = _codes(_model([plate, a, b2], mates))
+    assert res.passed and not found
+
+
+def test_motor_pushed_into_the_head_names_the_motor_and_the_head():
+    bracket = cpart("bracket", _box(60, 60, 10, ("CENTER", "CENTER", "MAX")))
+    head = cpart("head", _box(200, 200, 100), trans(35, -100, 0))
+    motor = cpart("motor", _cyl(25, 120), trans(0, 0, 0))  # x in [-25, 25]: 0 mm into the head...
+    pushed = cpart("motor", _cyl(25, 120), trans(52, 0, 0))  # ...then 52 mm along +x
+    mates = [_seat("motor", "bracket", d=40.0)]
+    found, _ = _codes(_model([bracket, head, motor], mates))
+    assert not found
+    report = check_model(_model([bracket, head, pushed], mates))
+    inter = [f for f in report.findings if f.code == "interference"]
+    assert any({"motor", "head"} <= set(f.message.replace(",", " ").split()) for f in inter)
+    worst = max(inter, key=lambda f: f.value)
+    assert worst.value == pytest.approx(25 + 52 - 35, rel=0.02)
+    assert not report.passed and report.as_dict()["verdicts"]["interference"] is False
+
+
+def test_press_fit_between_partners_is_allowed_but_not_between_strangers():
+    model = peg_model(40.0, "press", depth=20.0)
+    found, res = _codes(model)
+    assert res.passed and not found
+    (row,) = [r for r in scan(model) if r.volume]
+    assert row.allowed and row.judged_by == "fit" and 0 < row.depth <= row.limit
+    assert row.depth == pytest.approx(-model.mates[0].fit["offset"], rel=0.05)
+    model.mates = []  # the same ring with no fit declared
+    found, res = _codes(model)
+    assert not res.passed and found[0].value == pytest.approx(row.depth, rel=0.05)
+
+
+def test_static_partners_over_their_fit_are_the_mate_gates():
+    model = peg_model(10.0, "clearance", lift=-2.0)
+    found, res = _codes(model)
+    assert not found and res.passed  # the mate gate reports mate-penetration instead
+    rows = scan(model)
+    assert rows and not rows[0].allowed and rows[0].judged_by == "mate"
+    codes = [f.code for f in check_model(model).findings]
+    assert "mate-penetration" in codes and "interference" not in codes
+
+
+def test_partner_overlap_outside_the_feature_region_is_caught():
+    base = cpart("base", _box(400, 100, 20, ("MIN", "CENTER", "MAX")))
+    # a 170 mm bar seated at x = 10, with a lug at x = 150 dipping 1 mm into the base
+    bar = _box(170, 20, 20, ("MIN", "CENTER", "MIN"))
+    lug = _box(10, 10, 21, ("MIN", "CENTER", "MIN")).translate((150, 0, -1))
+    mates = [_seat("child", "base", d=10.0, frame=trans(10, 0, 0), features=False)]
+    found, res = _codes(_model([base, cpart("child", bar + lug)], mates))
+    assert not res.passed and len(found) == 1
+    assert "outside every feature region" in found[0].message
+    assert found[0].value == pytest.approx(1.0, rel=0.02)
+
+
+def test_b3_agrees_with_the_gate():
+    from procedura_brep.sim import contact
+
+    column = cpart("column", _cyl(20, 300))
+    handle = cpart("handle", _box(80, 10, 10), trans(17, -5, 150))
+    model = _model([column, handle])
+    gate = [(r.a, r.b, r.depth) for r in scan(model) if not r.allowed]
+    b3 = [(o.a, o.b, o.depth) for o in contact.rest_overlaps(model)]
+    assert b3 == gate and len(b3) == 1
+    press = peg_model(40.0, "press", depth=20.0)
+    assert contact.rest_overlaps(press) == []  # allowed by the fit, in both
+
+
+@pytest.mark.parametrize("g", [0.5, 1.0, 2.0])
+@pytest.mark.parametrize("shape", ["block", "ring", "cylinder"])
+def test_planted_gouge_depth_is_read_within_two_percent(shape, g):
+    """Issue 11.4: a ring-shaped overlap (a head sunk onto its column) read 1.42 for 2 mm."""
+    from procedura_brep.gates.mate_gate import mate_gate
+
+    base = cpart("base", _box(100, 100, 30, ("CENTER", "CENTER", "MAX")))
+    if shape == "block":
+        child = _box(30, 30, 20, ("CENTER", "CENTER", "MIN"))
+        parent = base
+    elif shape == "ring":  # a head with a 12 mm bore sunk onto a 40 mm column
+        parent = cpart("base", _cyl(20, 60).translate((0, 0, -60)))
+        child = _box(60, 60, 20, ("CENTER", "CENTER", "MIN")) - _cyl(6, 20)
+    else:
+        child = _cyl(8, 40)
+        parent = base
+    mate = _seat("child", "base", d=12.0)
+    model = _model([parent, cpart("child", child, trans(0, 0, -g))], [mate])
+    _, res = mate_gate(model)
+    assert res.measured[mate.name]["penetration_mm"] == pytest.approx(g, rel=0.02)
+    model.mates = []  # as strangers: the interference gate reads the same depth
+    found, _ = _codes(model)
+    assert found[0].value == pytest.approx(g, rel=0.02)
+
+
+QUILL = '''from procedura_brep.program import *
+
+# === params ===
+spigot_d = 12.0  # mm, spigot under the quill: the nominal of its peg_socket
+pulley_d = 10.0  # mm, pulley hub: the nominal of its seat_face
+quill_travel = {travel}  # mm, where the pulley sits along x
+
+# === helpers ===
+
+# === parts ===
+@part(detail="silhouette", material="steel", description="head block")
+def head():
+    return Box(300, 120, 20, align=(Align.CENTER, Align.CENTER, Align.MAX))
+
+@part(detail="major", material="steel", description="quill column at the head centre")
+def quill():
+    return Cylinder(20, 100, align=(Align.CENTER, Align.CENTER, Align.MIN))
+
+@part(detail="major", material="steel", description="pulley beside the quill")
+def pulley():
+    return Cylinder(30, 20, align=(Align.CENTER, Align.CENTER, Align.MIN))
+
+# === frames ===
+frames("head", top=Location((0, 0, 0)), side=Location((quill_travel, 0, 0)))
+frames("quill", foot=Location((0, 0, 0)))
+frames("pulley", foot=Location((0, 0, 0)))
+
+# === assembly ===
+mate("quill.foot", "head.top", "peg_socket", nominal="spigot_d", fit="location")
+mate("pulley.foot", "head.side", "seat_face", nominal="pulley_d", fit="location")
+'''
+
+
+def test_edit_that_drives_the_pulley_into_the_quill_is_refused(tmp_path):
+    """Issue 11.1: `edit quill_travel=...` pushed a pulley 4 mm into the quill and was accepted."""
+    from typer.testing import CliRunner
+
+    from procedura_brep.cli import app
+
+    prog = tmp_path / "press.py"
+    prog.write_text(QUILL.format(travel=60.0))       # pulley r 30 + quill r 20 = 50 < 60: clear
+    runner = CliRunner()
+    res = runner.invoke(app, ["check", str(prog)])
+    assert res.exit_code == 0, res.output
+    res = runner.invoke(app, ["edit", str(prog), "--set", "quill_travel=46"])  # 4 mm in
+    assert res.exit_code == 1
+    out = " ".join(res.output.split())
+    assert "rejected" in out and "pulley and quill interpenetrate" in out
+    depth = float(out.split("interpenetrate: depth ")[1].split(" mm")[0])
+    assert depth == pytest.approx(4.0, rel=0.01)
+    assert "quill_travel = 60.0" in prog.read_text()
+
+
+def _plates(n):
+    import sys
+    sys.path.insert(0, str(__import__("pathlib").Path(__file__).resolve().parents[2] / "benchmarks"))
+    from gates import plates_model  # the benchmark's crossed plates (issue 10.1)
+    return plates_model(n)
+
+
+def test_boolean_face_budget_falls_back_to_a_mesh_estimate_with_a_warning(monkeypatch):
+    import dataclasses
+
+    from procedura_brep.gates import common as common_mod
+    from procedura_brep.gates.geometry import clear_caches
+    from procedura_brep.gates.mate_gate import mate_gate
+
+    model = _plates(4)
+    clear_caches()
+    findings, res = mate_gate(model)
+    m = res.measured["comb_foot"]
+    assert m["exact"] and m["penetration_mm"] == pytest.approx(1.0, rel=0.02)
+    assert "boolean-budget" not in {f.code for f in findings}
+    monkeypatch.setattr(common_mod, "TOL", dataclasses.replace(TOL, boolean_face_budget=100))
+    clear_caches()
+    findings, res = mate_gate(model)
+    m = res.measured["comb_foot"]
+    codes = {f.code: f for f in findings}
+    assert not m["exact"] and codes["boolean-budget"].severity == "warning"
+    assert codes["boolean-budget"].value == 24 * 24  # 4 plates of 6 faces each, both parts
+    assert "mate-penetration" in codes and m["penetration_mm"] > m["penetration_limit_mm"]
+    clear_caches()
+
+
+def test_a_boolean_that_occt_fails_is_estimated_and_reported_not_raised(monkeypatch):
+    from procedura_brep.gates import common as common_mod
+    from procedura_brep.gates.geometry import clear_caches
+
+    def broken(a, b):
+        raise RuntimeError("Standard_Failure: BOPAlgo")
+
+    monkeypatch.setattr(common_mod, "exact_common", broken)
+    clear_caches()
+    column = cpart("column", _cyl(20, 300))
+    handle = cpart("handle", _box(80, 10, 10), trans(17, -5, 150))
+    report = check_model(_model([column, handle]))
+    codes = {f.code: f for f in report.findings}
+    assert codes["boolean-budget"].severity == "warning" and "OCCT failed" in codes["boolean-budget"].message
+    assert codes["interference"].value > TOL.penetration_slack_mm  # the estimate still catches it
+    clear_caches()
