@@ -91,11 +91,21 @@ def frames(part_name: str, **named: Any) -> None:
         frames("post", foot=Location((0, 0, 0)))                 # +Z up, into the post
         frames("arm", pivot=Location((7, 0, 0), (90, 0, 0)))     # hinge axis along -Y
     """
+    import math
+
     line = _caller_line()
     for key, loc in named.items():
         if not hasattr(loc, "to_tuple") and not hasattr(loc, "wrapped"):
             raise ProgramFormatError(f"frame {part_name}.{key} must be a Location, got {type(loc).__name__}",
                                      line=line)
+        try:
+            pos, rot = loc.to_tuple()
+            finite = all(math.isfinite(float(v)) for v in (*pos, *rot))
+        except (AttributeError, TypeError, ValueError):
+            finite = True  # not a Location-like object with to_tuple: checked when placed
+        if not finite:
+            raise ProgramFormatError(f"frame {part_name}.{key} is not finite "
+                                     f"(position {tuple(pos)}, rotation {tuple(rot)})", line=line)
     active().add_frames(part_name, named, line)
 
 
@@ -127,6 +137,8 @@ def mate(child: str, parent: str, type: str, *, nominal: str, fit: str | None = 
         mate("jaw.slide", "body.rail", "prismatic", nominal="rail_w", limits=(0, 80))
     """
     line = _caller_line()
+    if name is not None and not isinstance(name, str):
+        raise ProgramFormatError(f"mate name must be a string, got {type(name).__name__}", line=line)
     cpart, cframe = _split(child, "child", line)
     ppart, pframe = _split(parent, "parent", line)
     mname = name or f"{cpart}_{cframe}"

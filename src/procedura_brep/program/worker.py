@@ -84,7 +84,10 @@ def _child(req: dict[str, Any]) -> None:
     from .model import Finding, to_json
     from .runtime import compile_program
     try:
-        model = compile_program(req["source"], name=req.get("name", "model"), cache_dir=cache_fd)
+        from ..config import SandboxLimits
+        limits = SandboxLimits(**req["limits"])
+        model = compile_program(req["source"], name=req.get("name", "model"), cache_dir=cache_fd,
+                                limits=limits)
         payload = to_json(model)
     except MemoryError:
         payload = {"fatal": Finding("memory", "the program ran out of memory (address-space limit "
@@ -160,8 +163,10 @@ def main() -> None:
     _stub_unused_imports()
     import build123d  # noqa: F401 - the whole point: pay the import once
 
-    from . import runtime  # noqa: F401
+    from . import runtime
     from .. import kernel  # noqa: F401
+    runtime.harden_kernel()
+    from . import caps, trust  # noqa: F401 - imported before any child drops privileges
     out = sys.stdout
     out.write(json.dumps({"ready": True, "pid": os.getpid()}) + "\n")
     out.flush()
