@@ -91,21 +91,14 @@ def frames(part_name: str, **named: Any) -> None:
         frames("post", foot=Location((0, 0, 0)))                 # +Z up, into the post
         frames("arm", pivot=Location((7, 0, 0), (90, 0, 0)))     # hinge axis along -Y
     """
-    import math
-
     line = _caller_line()
     for key, loc in named.items():
         if not hasattr(loc, "to_tuple") and not hasattr(loc, "wrapped"):
             raise ProgramFormatError(f"frame {part_name}.{key} must be a Location, got {type(loc).__name__}",
                                      line=line)
-        try:
-            pos, rot = loc.to_tuple()
-            finite = all(math.isfinite(float(v)) for v in (*pos, *rot))
-        except (AttributeError, TypeError, ValueError):
-            finite = True  # not a Location-like object with to_tuple: checked when placed
-        if not finite:
-            raise ProgramFormatError(f"frame {part_name}.{key} is not finite "
-                                     f"(position {tuple(pos)}, rotation {tuple(rot)})", line=line)
+        if not _finite_location(loc):
+            raise ProgramFormatError(f"frame {part_name}.{key} is not finite (NaN or infinite "
+                                     f"position or rotation)", line=line)
     active().add_frames(part_name, named, line)
 
 
@@ -147,6 +140,16 @@ def mate(child: str, parent: str, type: str, *, nominal: str, fit: str | None = 
                                f"not the literal {nominal!r}; add a param and pass its name")
     active().add_mate(MateDecl(mname, cpart, cframe, ppart, pframe, type, nominal, fit,
                                dict(options), line))
+
+
+def _finite_location(loc: Any) -> bool:
+    """False when a Location's transform holds a NaN or an infinity."""
+    import math
+    try:
+        t = loc.wrapped.Transformation()
+        return all(math.isfinite(t.Value(r, c)) for r in range(1, 4) for c in range(1, 5))
+    except (AttributeError, TypeError, ValueError):
+        return True  # not Location-like: refused when placed
 
 
 def _split(ref: str, role: str, line: int | None) -> tuple[str, str]:

@@ -443,6 +443,7 @@ def _place(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]]) -> No
     carriers = {n: copy.copy(s) for n, s in b.solids.items()}
     for c in carriers.values():
         c.locate(Location())
+    jointed = {names[0]}
     for m in mates:
         decl, mtype, opts = m["decl"], m["type"], m["options"]
         home = opts.get("home") if mtype.kind == "kinematic" else None
@@ -459,8 +460,11 @@ def _place(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]]) -> No
         elif decl.child not in b.world:
             b.world[decl.child] = solved
             m["primary"] = True
-            if decl.child in carriers and decl.parent in carriers:
+            # a carrier is where the closed form says only if its own chain of joints ran
+            # (a failed part upstream leaves its carrier at the origin)
+            if decl.child in carriers and decl.parent in carriers and decl.parent in jointed:
                 _place_by_joint(carriers, reg, m, solved, kinematic, rigid_place, b)
+                jointed.add(decl.child)
         else:
             m["primary"] = False
             dist, ang = pl.residual(b.world[decl.child], solved)

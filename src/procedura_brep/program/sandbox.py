@@ -163,11 +163,11 @@ class Worker:
         Returns the model (whose ``findings`` may hold part or mate errors). Raises
         :class:`CompileError` when the child was killed, crashed or timed out.
         """
-        from .sections import check_text
+        from .sections import check_size
         try:
-            check_text(source, limit=options.limits.source_bytes)
-        except ProgramFormatError as exc:
-            f = Finding("too-large" if "bytes" in str(exc) else "format", str(exc), line=exc.line)
+            check_size(source, limit=options.limits.source_bytes)
+        except ProgramFormatError as exc:  # refused before it is sent anywhere
+            f = Finding("too-large", str(exc))
             raise CompileError(f.message, [f]) from None
         with self._lock:
             proc = self._ensure_ready()

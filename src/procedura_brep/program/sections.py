@@ -35,17 +35,22 @@ MARKER_RE = re.compile(r"#\s*===\s*([A-Za-z_]+)\s*===\s*")
 ODD_BREAKS_RE = re.compile("[\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029]")
 
 
+def check_size(source: str, *, limit: int | None = None) -> None:
+    """Refuse a program over the size cap (``config.SANDBOX.source_bytes``), naming the cap."""
+    cap = SANDBOX.source_bytes if limit is None else limit
+    size = len(source) if len(source) * 4 <= cap else len(source.encode("utf-8", "surrogatepass"))
+    if size > cap:
+        raise ProgramFormatError(f"the program is {size} bytes; programs are limited to {cap} bytes "
+                                 f"(config.SANDBOX.source_bytes)")
+
+
 def check_text(source: str, *, limit: int | None = None) -> None:
     """Refuse a program over the size cap or with a character that breaks line numbering.
 
     Raises:
         ProgramFormatError: naming the cap, or the line and the character.
     """
-    cap = SANDBOX.source_bytes if limit is None else limit
-    size = len(source) if len(source) * 4 <= cap else len(source.encode("utf-8", "surrogatepass"))
-    if size > cap:
-        raise ProgramFormatError(f"the program is {size} bytes; programs are limited to {cap} bytes "
-                                 f"(config.SANDBOX.source_bytes)")
+    check_size(source, limit=limit)
     m = ODD_BREAKS_RE.search(source)
     if m:
         line = source.count("\n", 0, m.start()) + 1
