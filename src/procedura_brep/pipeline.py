@@ -102,7 +102,8 @@ class BuildResult:
 def compile_file(source: str, name: str) -> CompiledModel:
     """Compile in the warm worker; while it boots (~3 s), load the parent's OCP modules."""
     from . import kernel
-    from .program.sandbox import compile_source, default_worker
+    from .program.sandbox import compile_source, default_worker, refuse_oversized
+    refuse_oversized(source)  # before paying for the worker and the warm-up
     default_worker()  # starts the worker process now, returns at once
     kernel.warm_up()
     _warm_exports()

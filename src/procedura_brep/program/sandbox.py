@@ -163,12 +163,7 @@ class Worker:
         Returns the model (whose ``findings`` may hold part or mate errors). Raises
         :class:`CompileError` when the child was killed, crashed or timed out.
         """
-        from .sections import check_size
-        try:
-            check_size(source, limit=options.limits.source_bytes)
-        except ProgramFormatError as exc:  # refused before it is sent anywhere
-            f = Finding("too-large", str(exc))
-            raise CompileError(f.message, [f]) from None
+        refuse_oversized(source, options.limits)
         with self._lock:
             proc = self._ensure_ready()
             scratch = tempfile.mkdtemp(prefix=f"{TEMP_PREFIXES[1]}{os.getpid()}-")
@@ -198,6 +193,17 @@ class Worker:
                 return model
             finally:
                 shutil.rmtree(scratch, ignore_errors=True)
+
+
+def refuse_oversized(source: str, limits: SandboxLimits = SANDBOX) -> None:
+    """Raise :class:`CompileError` (finding ``too-large``, naming the cap) for a program over
+    ``limits.source_bytes``: call it before paying for anything else."""
+    from .sections import check_size
+    try:
+        check_size(source, limit=limits.source_bytes)
+    except ProgramFormatError as exc:
+        f = Finding("too-large", str(exc))
+        raise CompileError(f.message, [f]) from None
 
 
 def _read_result(path: str, limits: SandboxLimits) -> Any:
@@ -273,4 +279,5 @@ def compile_source(source: str, *, name: str = "model", limits: SandboxLimits | 
     return (worker or default_worker()).compile(source, opts)
 
 
-__all__ = ["CompileOptions", "Worker", "compile_source", "default_worker", "clean_env", "replace"]
+__all__ = ["CompileOptions", "Worker", "compile_source", "default_worker", "clean_env",
+           "clean_stale_temp", "refuse_oversized", "replace"]
