@@ -3,6 +3,7 @@ survives, and nothing is written outside the scratch directory."""
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 
@@ -116,8 +117,33 @@ def test_env_is_stripped_of_credentials(worker, monkeypatch):
     from procedura_brep.program.sandbox import clean_env
     monkeypatch.setenv("OPENAI_API_KEY", "sk-test")
     monkeypatch.setenv("MY_SECRET_TOKEN", "x")
+    monkeypatch.setenv("DATABASE_URL", "postgres://u:pw@db/x")
+    monkeypatch.setenv("GH_PAT", "ghp_x")
+    monkeypatch.setenv("PROCEDURA_API_KEY", "x")
+    monkeypatch.setenv("LC_ALL", "C.UTF-8")
+    monkeypatch.setenv("MUJOCO_GL", "egl")
     env = clean_env()
-    assert "OPENAI_API_KEY" not in env and "MY_SECRET_TOKEN" not in env
+    for k in ("OPENAI_API_KEY", "MY_SECRET_TOKEN", "DATABASE_URL", "GH_PAT", "PROCEDURA_API_KEY"):
+        assert k not in env
+    assert env["LC_ALL"] == "C.UTF-8" and env["MUJOCO_GL"] == "egl" and env["PATH"] == os.environ["PATH"]
+
+
+def test_stale_temp_folders_of_dead_owners_are_removed(tmp_path):
+    from procedura_brep.program.sandbox import clean_stale_temp
+    pid = os.fork()
+    if pid == 0:
+        os._exit(0)
+    os.waitpid(pid, 0)  # a pid that is surely dead now
+    dead = tmp_path / f"procedura-parts-{pid}-abc"
+    dead_compile = tmp_path / f"procedura-compile-{pid}-abc"
+    alive = tmp_path / f"procedura-parts-{os.getppid()}-abc"
+    other = tmp_path / "procedura-parts-nopid"
+    for d in (dead, dead_compile, alive, other):
+        d.mkdir()
+        (d / "x.brep").write_bytes(b"x")
+    removed = clean_stale_temp(str(tmp_path))
+    assert sorted(removed) == sorted([str(dead), str(dead_compile)])
+    assert alive.exists() and other.exists() and not dead.exists()
 
 
 def test_caller_survives_and_worker_still_compiles(worker):
