@@ -44,6 +44,7 @@ CRAFTED = [
     ("part_name_traversal", ("parts", 0, "name"), "../../../x", "is not a name"),
     ("part_name_newline", ("parts", 0, "name"), "base\n", "is not a name"),
     ("part_name_usd", ("parts", 0, "name"), "Base Plate", "is not a name"),
+    ("part_name_digit", ("parts", 0, "name"), "0base", "is not a name"),
     ("frame_name_traversal", ("parts", 0, "frames"), {"../top": [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]}, "is not a name"),
     ("nan_frame", ("parts", 0, "frames", "top"), NAN_M, "not a finite 4x4 matrix"),
     ("inf_placement", ("parts", 1, "placement"), [[1, 0, 0, math.inf], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], "not a finite 4x4 matrix"),

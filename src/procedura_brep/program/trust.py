@@ -27,13 +27,15 @@ from .model import CompiledMate, CompiledModel, CompiledPart, Finding, cap_text
 from .registry import DETAILS
 
 #: Part, frame and mate names: the identifiers every exporter writes (USD prims, URDF links,
-#: mesh file names). Checked with ``re.fullmatch`` (``$`` would accept a trailing newline).
-NAME = re.compile(r"[a-z0-9_]+")
+#: mesh file names), exactly what the registry accepts (``[a-z0-9_]+`` starting with a letter,
+#: so also a valid USD prim name). Checked with ``re.fullmatch`` (``$`` would accept a
+#: trailing newline).
+NAME = re.compile(r"[a-z][a-z0-9_]{0,63}")
 #: Param names: Python identifiers.
 IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 HEX_KEY = re.compile(r"[0-9a-f]{64}")
 SEVERITIES = ("error", "warning", "info")
-MAX_NAME = 128
+MAX_NAME = 128  # params and other identifiers
 MAX_TEXT = 4096
 MAX_ITEMS = 10_000
 MAX_DEPTH = 4
