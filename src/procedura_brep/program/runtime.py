@@ -27,7 +27,7 @@ from ..errors import MateError, ProceduraError, ProgramFormatError
 from ..materials import MATERIALS
 from ..mates import check_options, get_type
 from ..mates import placement as pl
-from . import cache, caps, policy, registry
+from . import cache, caps, guards, policy, registry
 from .model import CompiledMate, CompiledModel, CompiledPart, Finding, cap_text
 from .sections import parse_sections
 
@@ -142,75 +142,6 @@ class _Build:
         self.findings.append(Finding(code, message, **kw))
 
 
-def harden_kernel() -> None:
-    """Defence in depth, applied once in the worker (the zygote) before any program runs.
-
-    * Fonts: every text path of build123d (``Text``, ``Compound.make_text``, positional or
-      ``**{"font" + "_path": p}``) resolves its font through ``Compound.resolve_font``; the
-      wrapper refuses any font file and any font name that looks like a path, so programs use
-      the built-in and system fonts by family name only.
-    * Lazy imports: one ``Text`` is made here, so the encodings and font tables it loads on
-      first use (``encodings.mac_roman`` ...) are imported before a child drops privileges.
-    """
-    from build123d import Compound, Text
-    original = Compound.resolve_font
-    if getattr(original, "procedura_guard", False):
-        return
-
-    def resolve_font(font: str = "Arial", font_path: Any = None, *args: Any, **kwargs: Any) -> Any:
-        if font_path is not None:
-            raise ValueError("programs may not load font files (font_path); use a font name "
-                             "such as 'Arial' or the default")
-        if not isinstance(font, str) or any(c in font for c in "/\\~") or font.startswith("."):
-            raise ValueError(f"font {font!r:.60} must be a font family name, not a path")
-        return original(font, None, *args, **kwargs)
-
-    resolve_font.procedura_guard = True  # type: ignore[attr-defined]
-    Compound.resolve_font = staticmethod(resolve_font)  # type: ignore[method-assign]
-    Text("x", 5)
-
-
-def _builder_open() -> bool:
-    """True when a build123d builder context (``with BuildPart():`` ...) is open."""
-    try:
-        from build123d.build_common import _build_scope
-    except ImportError:  # pragma: no cover - an older build123d
-        return False
-    return _build_scope.get() is not None
-
-
-def class_tables() -> dict[tuple[str, str], tuple[int, int, tuple[tuple[Any, int], ...]]]:
-    """A fingerprint of build123d's mutable class-level tables (and exported containers):
-    identity, size and the identity of every item."""
-    import build123d
-    out: dict[tuple[str, str], tuple[int, int, tuple[tuple[Any, int], ...]]] = {}
-
-    def add(owner: str, attr: str, val: Any) -> None:
-        if isinstance(val, dict):
-            items = tuple((repr(k), id(v)) for k, v in val.items())
-        elif isinstance(val, (list, set)):
-            items = tuple(("", id(v)) for v in val)
-        else:
-            return
-        out[(owner, attr)] = (id(val), len(val), items)
-
-    for n in build123d.__all__:
-        obj = getattr(build123d, n, None)
-        if isinstance(obj, type):
-            for klass in obj.__mro__:
-                if klass.__module__.startswith("build123d"):
-                    for attr, val in vars(klass).items():
-                        add(klass.__qualname__, attr, val)
-        else:
-            add("build123d", n, obj)
-    return out
-
-
-def _changed_tables(before: dict[Any, Any]) -> list[str]:
-    after = class_tables()
-    return sorted(f"{o}.{a}" for (o, a) in set(before) | set(after) if before.get((o, a)) != after.get((o, a)))
-
-
 def compile_program(source: str, *, name: str = "model", cache_dir: str | int | None = None,
                     limits: SandboxLimits = SANDBOX) -> CompiledModel:
     """Compile ``source`` in this process. Call only inside the sandbox child."""
@@ -229,7 +160,7 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
         return CompiledModel(name, {}, [], [], b.findings, b.timings)
     reg = registry.push()
     glb = restricted_globals()
-    tables = class_tables()
+    tables = guards.class_tables()
     try:
         contextvars.Context().run(_exec_module, b, source, glb)
     finally:
@@ -252,7 +183,7 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     contextvars.Context().run(_apply_features, b, reg, mates, hits)
     _place(b, reg, mates)
     _check_model_caps(b, reg)
-    changed = _changed_tables(tables)
+    changed = guards.changed_tables(tables)
     if changed:
         b.fail("policy", f"the program modified build123d's class-level table(s) "
                          f"{', '.join(changed[:5])}; programs may not change the kernel")
@@ -273,7 +204,7 @@ def _exec_module(b: _Build, source: str, glb: dict[str, Any]) -> None:
                mate=getattr(exc, "mate", None))
     except BaseException as exc:  # noqa: BLE001 - any failure of untrusted code is a finding
         b.fail("module-exception", _exc_text(exc), line=_program_line(exc.__traceback__))
-    if _builder_open():
+    if guards.builder_open():
         b.fail("policy", "module-level code left a builder context (BuildPart/BuildSketch/"
                          "BuildLine) open; open builders only inside a part function, with `with`")
 
@@ -331,7 +262,7 @@ def _eval_part(b: _Build, decl: registry.PartDecl, params: dict[str, Any], glb: 
     from .. import kernel
     try:
         solid = _as_solid(decl.fn())
-        if _builder_open():
+        if guards.builder_open():
             raise ProgramFormatError("the part left a builder context open")
         fig = caps.measure(solid.wrapped, b.limits)
         why = caps.part_violation(decl.name, fig, b.limits)

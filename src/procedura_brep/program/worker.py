@@ -174,9 +174,9 @@ def main() -> None:
     _stub_unused_imports()
     import build123d  # noqa: F401 - the whole point: pay the import once
 
-    from . import runtime
+    from . import guards, runtime  # noqa: F401
     from .. import kernel  # noqa: F401
-    runtime.harden_kernel()
+    guards.harden_kernel()
     from . import caps, isolation, trust  # noqa: F401 - imported before any child drops privileges
     isolation.preload()
     out = sys.stdout
