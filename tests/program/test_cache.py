@@ -113,6 +113,22 @@ def test_module_level_object_is_not_cached_stale(tmp_path):
         w.close()
 
 
+def test_module_object_through_a_default_argument_is_not_cached_stale(tmp_path):
+    """``def long_box(b=ARM_BOX)``: the default is evaluated at definition, not in the source."""
+    w = Worker(cache_dir=tmp_path / "cache")
+    try:
+        a_src = LAMP.replace("# === helpers ===", "arm_len = 90.0  # mm, a param\n# === helpers ===\n"
+                             "ARM_BOX = Box(arm_len, 14, 10, align=(Align.MIN, Align.CENTER, Align.CENTER))\n"
+                             "def arm_box(b=ARM_BOX):\n    return b\n") \
+                    .replace("return Box(90, 14, 10, align=(Align.MIN, Align.CENTER, Align.CENTER))", "return arm_box()")
+        a = w.compile(a_src)
+        b = w.compile(a_src.replace("arm_len = 90.0", "arm_len = 40.0"))
+        assert a.ok and b.ok, (a.findings, b.findings)
+        assert abs(_arm_length(a) - 90) < 1 and abs(_arm_length(b) - 40) < 1
+    finally:
+        w.close()
+
+
 def test_a_part_mutating_module_state_is_not_cached(tmp_path):
     """post changes a list arm reads: arm's key (computed before the parts ran) no longer
     describes what it read, so it is not cached and the next program gets its own arm."""

@@ -5,7 +5,7 @@ of every program function and class it uses (transitively), the values of the pa
 plain module-level constants those read, the text of the header and helpers sections, and for
 every mate that touches it the mate's type, nominal value, fit, options and this part's frame.
 A part that reads any other module-level object (``ARM = [Box(...)]``, built from params the
-key would not see) gets no key and is rebuilt on every compile; the compiler also recomputes
+key would not see), directly, through a default argument or through a closure, gets no key and is rebuilt on every compile; the compiler also recomputes
 the keys after the parts ran and drops any that changed (a part that mutated a value another
 part reads). Editing one part, or adding a part, changes only the keys of that part and of the
 partners whose features change; every other part is loaded from the cache instead of rebuilt.
@@ -97,6 +97,7 @@ def _walk(code: types.CodeType, glb: dict[str, Any], params: dict[str, Any], sou
         fn_code = getattr(obj, "__code__", None)
         if isinstance(fn_code, types.CodeType) and fn_code.co_filename == "<program>":
             out.append(f"fn {n}:\n{_function_lines(source_lines, fn_code)}")
+            ok &= _function_state(obj, out)
             ok &= _walk(fn_code, glb, params, source_lines, seen, out)
         elif _plain(obj):
             out.append(f"value {n}={obj!r}")  # a module-level constant outside the params
@@ -107,6 +108,21 @@ def _walk(code: types.CodeType, glb: dict[str, Any], params: dict[str, Any], sou
         else:
             ok = False
     return ok
+
+
+def _function_state(fn: Any, out: list[str]) -> bool:
+    """Hash a program function's default arguments and closure cells (evaluated when it was
+    defined, so not visible in its source); False when one is not a plain value."""
+    state = [getattr(fn, "__defaults__", None), getattr(fn, "__kwdefaults__", None)]
+    for cell in getattr(fn, "__closure__", None) or ():
+        try:
+            state.append(cell.cell_contents)
+        except ValueError:  # an empty cell
+            state.append(None)
+    if not all(_plain(v) for v in state):
+        return False
+    out.append(f"state {state!r}")
+    return True
 
 
 def _walk_class(n: str, cls: type, glb: dict[str, Any], params: dict[str, Any],
@@ -179,7 +195,7 @@ def part_keys(source: str, sections: Sections, reg: Registry, params: dict[str, 
         parts = [_engine_digest(), f"part {name}", context]
         code = decl.fn.__code__
         parts.append(_function_lines(lines, code))
-        if not _walk(code, glb, params, lines, set(), parts):
+        if not (_function_state(decl.fn, parts) & _walk(code, glb, params, lines, set(), parts)):
             keys[name] = ""  # reads module state that is not hashable: never cached
             continue
         for m in mates:
