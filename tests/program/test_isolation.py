@@ -93,3 +93,31 @@ def test_child_log_names_every_layer(probe):
 def test_root_worker_child_runs_as_its_own_uid_and_cannot_read_root_files(probe):
     assert probe["uid"] == worker.child_uid(probe["pid"]) and probe["uid"] != 0
     assert probe["secret"] == 13  # EACCES
+
+
+@pytest.mark.skipif(not ROOT, reason="simulates a normal user by switching uid, which needs root")
+def test_layers_as_a_normal_user(tmp_path):
+    """As a normal user (no root): no-new-privs and seccomp apply, the network namespace where
+    unprivileged user namespaces are enabled; files stay writable."""
+    from procedura_brep.program import isolation
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:
+        os.close(r)
+        try:
+            os.setgroups([])
+            os.setgid(12345)
+            os.setuid(12345)
+            layers = isolation.isolate()
+            try:
+                socket.socket()
+                sock = "opened"
+            except OSError as exc:
+                sock = exc.errno
+            os.write(w, json.dumps({"layers": layers, "socket": sock}).encode())
+        finally:
+            os._exit(0)
+    os.close(w)
+    os.waitpid(pid, 0)
+    res = json.loads(os.read(r, 4096))
+    assert {"no_new_privs", "seccomp"} <= set(res["layers"]) and res["socket"] == 1
