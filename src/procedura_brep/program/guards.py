@@ -12,6 +12,11 @@ from __future__ import annotations
 
 from typing import Any
 
+#: Codecs imported in the worker before any child drops privileges (font tables use mac_roman
+#: and UTF-16; the rest are what programs' own ``str.encode`` calls plausibly name).
+CODECS = ("mac_roman", "utf_16", "utf_16_be", "utf_16_le", "utf_32", "latin_1", "ascii",
+          "cp1252", "utf_8")
+
 
 def harden_kernel() -> None:
     """Defence in depth, applied once in the worker (the zygote) before any program runs.
@@ -20,9 +25,14 @@ def harden_kernel() -> None:
       ``**{"font" + "_path": p}``) resolves its font through ``Compound.resolve_font``; the
       wrapper refuses any font file and any font name that looks like a path, so programs use
       the built-in and system fonts by family name only.
-    * Lazy imports: one ``Text`` is made here, so the encodings and font tables it loads on
-      first use (``encodings.mac_roman`` ...) are imported before a child drops privileges.
+    * Lazy imports: the common codecs (:data:`CODECS`) are imported and one ``Text`` is made, so what text handling loads on first use (``encodings.mac_roman``, font tables)
+      is in memory before a child drops privileges: as its own uid, the child often cannot
+      read the interpreter's standard library (here it lives under ``/root``), which is why
+      plain ``Text("x", 5)`` failed with ``LookupError: unknown encoding: mac_roman``.
     """
+    import importlib
+    for codec in CODECS:
+        importlib.import_module(f"encodings.{codec}")
     from build123d import Compound, Text
     original = Compound.resolve_font
     if getattr(original, "procedura_guard", False):
