@@ -243,5 +243,6 @@ def test_legitimate_big_parts_pass_the_caps(worker):
 
 def test_text_works_in_the_sandbox(worker):
     """Plain Text compiles in the child (it once failed as nobody: LookupError mac_roman)."""
-    m = worker.compile(in_part("return extrude(Text('x', 5), 2)"), CompileOptions(cache=False))
+    m = worker.compile(in_part("t = 'x'.encode('utf-16') + 'x'.encode('cp1252')\n"
+                               "return extrude(Text('x', 5), 2)"), CompileOptions(cache=False))
     assert m.ok, [f.message for f in m.findings]
