@@ -60,33 +60,56 @@ def builder_open() -> bool:
     return _build_scope.get() is not None
 
 
-def class_tables() -> dict[tuple[str, str], tuple[int, int, tuple[tuple[Any, int], ...]]]:
-    """A fingerprint of build123d's mutable class-level tables (and exported containers):
-    identity, size and the identity of every item."""
+Fingerprint = tuple[int, int, tuple[tuple[str, int], ...]]
+
+
+def _fingerprint(val: Any) -> Fingerprint | None:
+    if isinstance(val, dict):
+        return (id(val), len(val), tuple((repr(k), id(v)) for k, v in val.items()))
+    if isinstance(val, (list, set)):
+        return (id(val), len(val), tuple(("", id(v)) for v in val))
+    return None
+
+
+def _tables() -> dict[tuple[str, str], tuple[Any, str]]:
+    """Every public mutable class-level table of build123d (and exported container):
+    ``(owner name, attr) -> (owner object, attr)``. Programs cannot reach ``_`` names nor add
+    class attributes (the policy), so this set is fixed once build123d is imported."""
     import build123d
-    out: dict[tuple[str, str], tuple[int, int, tuple[tuple[Any, int], ...]]] = {}
-
-    def add(owner: str, attr: str, val: Any) -> None:
-        if isinstance(val, dict):
-            items = tuple((repr(k), id(v)) for k, v in val.items())
-        elif isinstance(val, (list, set)):
-            items = tuple(("", id(v)) for v in val)
-        else:
-            return
-        out[(owner, attr)] = (id(val), len(val), items)
-
+    out: dict[tuple[str, str], tuple[Any, str]] = {}
     for n in build123d.__all__:
         obj = getattr(build123d, n, None)
         if isinstance(obj, type):
             for klass in obj.__mro__:
                 if klass.__module__.startswith("build123d"):
                     for attr, val in vars(klass).items():
-                        add(klass.__qualname__, attr, val)
-        else:
-            add("build123d", n, obj)
+                        if not attr.startswith("_") and _fingerprint(val) is not None:
+                            out[(klass.__qualname__, attr)] = (klass, attr)
+        elif _fingerprint(obj) is not None:
+            out[("build123d", n)] = (build123d, n)
     return out
 
 
-def changed_tables(before: dict[Any, Any]) -> list[str]:
+_TABLES: list[dict[tuple[str, str], tuple[Any, str]]] = []
+_BASELINE: list[dict[tuple[str, str], Fingerprint | None]] = []
+
+
+def class_tables() -> dict[tuple[str, str], Fingerprint | None]:
+    """A fingerprint of each table (identity, size, identity of every item)."""
+    if not _TABLES:
+        _TABLES.append(_tables())
+    return {key: _fingerprint(getattr(owner, attr, None)) for key, (owner, attr) in _TABLES[0].items()}
+
+
+def baseline() -> dict[tuple[str, str], Fingerprint | None]:
+    """The fingerprint taken once in the worker before it forks (every child starts from the
+    same tables)."""
+    if not _BASELINE:
+        _BASELINE.append(class_tables())
+    return _BASELINE[0]
+
+
+def changed_tables(before: dict[tuple[str, str], Fingerprint | None]) -> list[str]:
+    """The tables whose fingerprint differs from ``before``, as ``Owner.attr``."""
     after = class_tables()
-    return sorted(f"{o}.{a}" for (o, a) in set(before) | set(after) if before.get((o, a)) != after.get((o, a)))
+    return sorted(f"{o}.{a}" for (o, a) in before if before[(o, a)] != after.get((o, a)))

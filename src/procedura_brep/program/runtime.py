@@ -160,7 +160,7 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
         return CompiledModel(name, {}, [], [], b.findings, b.timings)
     reg = registry.push()
     glb = restricted_globals()
-    tables = guards.class_tables()
+    tables = guards.baseline()
     try:
         contextvars.Context().run(_exec_module, b, source, glb)
     finally:

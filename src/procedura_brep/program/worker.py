@@ -177,6 +177,7 @@ def main() -> None:
     from . import guards, runtime  # noqa: F401
     from .. import kernel  # noqa: F401
     guards.harden_kernel()
+    guards.baseline()
     from . import caps, isolation, trust  # noqa: F401 - imported before any child drops privileges
     isolation.preload()
     out = sys.stdout
