@@ -142,6 +142,25 @@ class SandboxLimits:
         file_size_bytes: RLIMIT_FSIZE; the child may only write in its scratch dir anyway.
         open_files: RLIMIT_NOFILE.
         recursion: Python recursion limit in the child.
+        source_bytes: a program longer than this (UTF-8 bytes) is refused before it is parsed
+            (the goldens are 8-22 KB; 1 MiB leaves room for a few hundred parts).
+        message_chars: every finding message and exception text is cut to this many
+            characters at its source (the child), so a hostile ``raise ValueError("A" * 10**8)``
+            cannot flood the report, the terminal or the model's feedback.
+        result_bytes: the parent refuses a child's ``result.json`` larger than this.
+        max_parts: parts per program.
+        max_part_solids: solids in one part's final shape (a part is one solid unless its
+            function declares otherwise; a few hundred covers a tread or a bolt circle).
+        max_model_solids: solids over the whole model.
+        max_part_faces: B-rep faces of one part (a detailed casting has a few thousand).
+        max_model_faces: faces over the whole model.
+        max_extent_mm: largest side of a part's bounding box, and of the placed model's: 10 m
+            covers furniture, vehicles and robots in mm (a 3 m-radius sphere passes); a
+            city block does not.
+        max_part_triangles: estimated triangles of one part at the fixed meshing tolerance
+            (``TOL.mesh_linear_mm`` / ``TOL.mesh_angular_rad``), from each face's area and
+            curvature radius (:mod:`procedura_brep.program.caps`).
+        max_model_triangles: the same estimate summed over the model.
     """
 
     cpu_s: int = 60
@@ -150,6 +169,17 @@ class SandboxLimits:
     file_size_bytes: int = 256 * 1024**2
     open_files: int = 256
     recursion: int = 2000
+    source_bytes: int = 1024**2
+    message_chars: int = 2000
+    result_bytes: int = 512 * 1024**2
+    max_parts: int = 500
+    max_part_solids: int = 256
+    max_model_solids: int = 2048
+    max_part_faces: int = 20_000
+    max_model_faces: int = 200_000
+    max_extent_mm: float = 10_000.0
+    max_part_triangles: int = 2_000_000
+    max_model_triangles: int = 8_000_000
 
 
 TOL = Tolerances()

@@ -111,7 +111,8 @@ def describe(f: Finding) -> str:
 def compile_file(source: str, name: str) -> CompiledModel:
     """Compile in the warm worker; while it boots (~3 s), load the parent's OCP modules."""
     from . import kernel
-    from .program.sandbox import compile_source, default_worker, kill_default_worker
+    from .program.sandbox import compile_source, default_worker, kill_default_worker, refuse_oversized
+    refuse_oversized(source)  # before paying for the worker and the warm-up
     with interrupt.children_ignore_sigint():  # the terminal's Ctrl-C is ours to handle
         default_worker()  # starts the worker process now, returns at once
     interrupt.add_cleanup(kill_default_worker)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from procedura_brep import kernel
 from procedura_brep.program.edit import set_params
 from procedura_brep.program.sandbox import CompileOptions, Worker
@@ -85,3 +87,111 @@ def test_docstring_edit_keeps_the_cache(tmp_path):
         assert rebuilt(m) == set()
     finally:
         w.close()
+
+
+def _arm_length(model) -> float:
+    lo, hi = kernel.bbox(model.part("arm").local_shape())
+    return hi[0] - lo[0]
+
+
+def _volumes(model) -> dict[str, float]:
+    return {p.name: round(kernel.volume(p.local_shape()), 6) for p in model.parts}
+
+
+def test_module_level_object_is_not_cached_stale(tmp_path):
+    """``ARM = [Box(...)]`` in the parts section is not in any key: the part is never cached."""
+    w = Worker(cache_dir=tmp_path / "cache")
+    try:
+        a_src = LAMP.replace("# === parts ===", "# === parts ===\nARM = [Box(90, 14, 10, align=(Align.MIN, Align.CENTER, Align.CENTER))]") \
+                    .replace("return Box(90, 14, 10, align=(Align.MIN, Align.CENTER, Align.CENTER))", "return ARM[0]")
+        a = w.compile(a_src)
+        b = w.compile(a_src.replace("ARM = [Box(90,", "ARM = [Box(40,"))
+        assert a.ok and b.ok, (a.findings, b.findings)
+        assert abs(_arm_length(a) - 90) < 1 and abs(_arm_length(b) - 40) < 1
+        assert "arm" in rebuilt(b) and b.part("arm").cache_key == ""
+    finally:
+        w.close()
+
+
+def test_module_object_through_a_default_argument_is_not_cached_stale(tmp_path):
+    """``def long_box(b=ARM_BOX)``: the default is evaluated at definition, not in the source."""
+    w = Worker(cache_dir=tmp_path / "cache")
+    try:
+        a_src = LAMP.replace("# === helpers ===", "arm_len = 90.0  # mm, a param\n# === helpers ===\n"
+                             "ARM_BOX = Box(arm_len, 14, 10, align=(Align.MIN, Align.CENTER, Align.CENTER))\n"
+                             "def arm_box(b=ARM_BOX):\n    return b\n") \
+                    .replace("return Box(90, 14, 10, align=(Align.MIN, Align.CENTER, Align.CENTER))", "return arm_box()")
+        a = w.compile(a_src)
+        b = w.compile(a_src.replace("arm_len = 90.0", "arm_len = 40.0"))
+        assert a.ok and b.ok, (a.findings, b.findings)
+        assert abs(_arm_length(a) - 90) < 1 and abs(_arm_length(b) - 40) < 1
+    finally:
+        w.close()
+
+
+def test_a_part_mutating_module_state_is_not_cached(tmp_path):
+    """post changes a list arm reads: arm's key (computed before the parts ran) no longer
+    describes what it read, so it is not cached and the next program gets its own arm."""
+    w = Worker(cache_dir=tmp_path / "cache")
+    try:
+        base = LAMP.replace("# === helpers ===", "# === helpers ===\nSIZES = [90]\n") \
+                   .replace("return Box(90, 14, 10", "return Box(SIZES[-1], 14, 10")
+        a_src = base.replace("    p = Cylinder(", "    SIZES.append(40)\n    p = Cylinder(")
+        a = w.compile(a_src)
+        assert a.ok and abs(_arm_length(a) - 40) < 1
+        b = w.compile(base)
+        assert b.ok and abs(_arm_length(b) - 90) < 1
+    finally:
+        w.close()
+
+
+HOSTILE_AFTER_INNOCENT = [
+    ("open_builder", LAMP.replace("# === assembly ===", "# === assembly ===\ndef g():\n"
+                                  "    with BuildPart():\n        yield 1\ngen = g()\nnext(gen)")),
+    ("table_alias_write", LAMP.replace("# === helpers ===", "# === helpers ===\n"
+                                       "t = Solid.shape_constructors\nt[99] = part\n")),
+]
+
+
+@pytest.mark.parametrize("pid, hostile", HOSTILE_AFTER_INNOCENT, ids=[h[0] for h in HOSTILE_AFTER_INNOCENT])
+def test_hostile_compile_leaves_nothing_for_the_next_program(tmp_path, pid, hostile):
+    """A program that leaves a builder open or writes into build123d's tables fails and
+    caches nothing; the innocent program compiled next in the same worker and cache gets its
+    own geometry."""
+    w = Worker(cache_dir=tmp_path / "cache")
+    try:
+        bad = w.compile(hostile)
+        assert not bad.ok and any(f.code == "policy" for f in bad.findings), bad.findings
+        assert not list((tmp_path / "cache").glob("*.brep"))
+        good = w.compile(LAMP)
+        fresh = w.compile(LAMP, CompileOptions(cache=False))
+        assert good.ok and rebuilt(good) == {"base", "post", "arm"}
+        assert _volumes(good) == _volumes(fresh)
+    finally:
+        w.close()
+
+
+def test_form_feed_is_refused_everywhere():
+    """A form feed shifted sections and keys against Python's numbering (stale parts, and an
+    edit of pin_d that rewrote pin_depth); now the program is refused with the line."""
+    from procedura_brep.errors import EditError
+    src = LAMP.replace('"""Desk', '# header\x0c comment\n"""Desk', 1) \
+              .replace("pin_d = 8.0", "pin_depth = 5.0  # mm\npin_d = 8.0")
+    with pytest.raises(EditError, match=r"line 1: the character '\\x0c'"):
+        set_params(src, {"pin_d": 6})
+
+
+def test_edit_rewrites_only_its_own_line():
+    src = LAMP.replace("pin_d = 8.0", "pin_depth = 5.0  # mm\npin_d = 8.0")
+    new = set_params(src, {"pin_d": 6})
+    diff = [(a, b) for a, b in zip(src.splitlines(), new.splitlines()) if a != b]
+    assert diff == [("pin_d = 8.0     # mm, hinge pin: the nominal of the arm's revolute mate",
+                     "pin_d = 6.0     # mm, hinge pin: the nominal of the arm's revolute mate")]
+
+
+def test_edit_refuses_a_size_going_to_zero_or_below():
+    from procedura_brep.errors import EditError
+    with pytest.raises(EditError, match=r"pin_d = -5 mm: pin_d is a size .* must stay > 0 \(it is 8 now\)"):
+        set_params(LAMP, {"pin_d": -5})
+    with pytest.raises(EditError, match="base_t = 0 mm"):
+        set_params(LAMP, {"base_t": 0})

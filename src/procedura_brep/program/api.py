@@ -104,6 +104,9 @@ def frames(part_name: str, **named: Any) -> None:
         if not hasattr(loc, "to_tuple") and not hasattr(loc, "wrapped"):
             raise ProgramFormatError(f"frame {part_name}.{key} must be a Location, got {type(loc).__name__}",
                                      line=line)
+        if not _finite_location(loc):
+            raise ProgramFormatError(f"frame {part_name}.{key} is not finite (NaN or infinite "
+                                     f"position or rotation)", line=line)
     active().add_frames(part_name, named, line)
 
 
@@ -135,6 +138,8 @@ def mate(child: str, parent: str, type: str, *, nominal: str, fit: str | None = 
         mate("jaw.slide", "body.rail", "prismatic", nominal="rail_w", limits=(0, 80))
     """
     line = _caller_line()
+    if name is not None and not isinstance(name, str):
+        raise ProgramFormatError(f"mate name must be a string, got {type(name).__name__}", line=line)
     cpart, cframe = _split(child, "child", line)
     ppart, pframe = _split(parent, "parent", line)
     mname = name or f"{cpart}_{cframe}"
@@ -143,6 +148,16 @@ def mate(child: str, parent: str, type: str, *, nominal: str, fit: str | None = 
                                f"not the literal {nominal!r}; add a param and pass its name")
     active().add_mate(MateDecl(mname, cpart, cframe, ppart, pframe, type, nominal, fit,
                                dict(options), line))
+
+
+def _finite_location(loc: Any) -> bool:
+    """False when a Location's transform holds a NaN or an infinity."""
+    import math
+    try:
+        t = loc.wrapped.Transformation()
+        return all(math.isfinite(t.Value(r, c)) for r in range(1, 4) for c in range(1, 5))
+    except (AttributeError, TypeError, ValueError):
+        return True  # not Location-like: refused when placed
 
 
 def _split(ref: str, role: str, line: int | None) -> tuple[str, str]:

@@ -14,6 +14,16 @@ from typing import Any
 
 import numpy as np
 
+from ..config import SANDBOX
+
+
+def cap_text(text: str, limit: int | None = None) -> str:
+    """``text`` cut to ``config.SANDBOX.message_chars`` characters (marked when cut)."""
+    n = SANDBOX.message_chars if limit is None else limit
+    if len(text) <= n:
+        return text
+    return text[:n] + f"... [{len(text) - n} more characters cut]"
+
 
 @dataclass
 class Finding:
@@ -38,6 +48,12 @@ class Finding:
     value: float | None = None
     limit: float | None = None
     severity: str = "error"
+
+    def __post_init__(self) -> None:
+        # capped at the source: a hostile program's exception text must not flood the
+        # report, the terminal or the model's feedback
+        if isinstance(self.message, str):
+            self.message = cap_text(self.message)
 
     def as_dict(self) -> dict[str, Any]:
         return {k: v for k, v in self.__dict__.items() if v is not None}
@@ -181,13 +197,8 @@ def to_json(model: CompiledModel) -> dict[str, Any]:
 
 
 def from_json(d: dict[str, Any]) -> CompiledModel:
-    parts = [CompiledPart(name=p["name"], brep=base64.b64decode(p["brep"]),
-                          placement=np.array(p["placement"]),
-                          frames={k: np.array(v) for k, v in p["frames"].items()},
-                          material=p["material"], detail=p["detail"], description=p["description"],
-                          lines=tuple(p["lines"]), reads=tuple(p["reads"]),
-                          cache_key=p.get("cache_key", ""),
-                          pieces=int(p.get("pieces", 1))) for p in d["parts"]]
-    mates = [CompiledMate(**{**m, "world_frame": np.array(m["world_frame"])}) for m in d["mates"]]
-    return CompiledModel(name=d["name"], params=d["params"], parts=parts, mates=mates,
-                         findings=[Finding(**f) for f in d["findings"]], timings=d["timings"])
+    """Read :func:`to_json`'s output back. The input comes from the sandbox child and is
+    untrusted: every field is validated (:mod:`procedura_brep.program.trust`) and a bad one
+    raises :class:`~procedura_brep.program.trust.ResultError` naming the field."""
+    from . import trust
+    return trust.model_from_json(d)

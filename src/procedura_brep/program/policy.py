@@ -15,7 +15,12 @@ Rules (DESIGN.md section 8):
   * no ``match`` statements (class patterns read attributes by name);
   * from the program API only ``import *``; no imported name starting with ``_``;
   * no ``global``/``nonlocal``, ``async`` code, or ``del`` of attributes;
-  * no keyword argument that names a file (``font_path=``, ``file=`` ...).
+  * no keyword argument that names a file (``font_path=``, ``file=`` ...);
+  * no writes into what the import brought in: no item assignment or deletion
+    (``Solid.shape_constructors[k] = fn``, ``FONT_ASPECT[k] = v``) and no call of a mutating
+    container method (``update``, ``append``, ``pop`` ...) on anything rooted at a name the
+    program did not bind itself (build123d's class-level tables are the kernel's state; the
+    runtime also compares them before and after the program runs).
 The dynamic half (resource limits, scratch dir, stripped environment, restricted builtins) is
 in :mod:`procedura_brep.program.sandbox` and :mod:`procedura_brep.program.runtime`.
 """
@@ -44,6 +49,9 @@ FORBIDDEN_ATTRIBUTES = frozenset({
 #: Keyword arguments that name files (e.g. ``Text(..., font_path=...)``): programs touch no files.
 FORBIDDEN_KEYWORDS = frozenset({"font_path", "file", "filename", "file_name"})
 PROGRAM_MODULE = "procedura_brep.program"
+#: Container methods that change their receiver.
+MUTATORS = frozenset({"update", "setdefault", "pop", "popitem", "clear", "append", "extend",
+                      "insert", "remove", "discard", "add"})
 
 
 class PolicyViolation(ProgramFormatError):
@@ -58,6 +66,50 @@ def check(source: str, filename: str = "<program>") -> None:
         raise ProgramFormatError(f"syntax error: {exc.msg}", line=exc.lineno) from None
     for node in ast.walk(tree):
         _check_node(node)
+    bound = _bound_names(tree)
+    for node in ast.walk(tree):
+        _check_write(node, bound)
+
+
+def _bound_names(tree: ast.AST) -> set[str]:
+    """Every name the program binds anywhere (assignments, arguments, defs, imports, loops)."""
+    out: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Name) and isinstance(node.ctx, (ast.Store, ast.Del)):
+            out.add(node.id)
+        elif isinstance(node, ast.arg):
+            out.add(node.arg)
+        elif isinstance(node, (ast.FunctionDef, ast.ClassDef, ast.AsyncFunctionDef)):
+            out.add(node.name)
+        elif isinstance(node, ast.alias):
+            out.add(node.asname or node.name.split(".")[0])
+        elif isinstance(node, ast.ExceptHandler) and node.name:
+            out.add(node.name)
+    return out
+
+
+def _root(node: ast.AST) -> ast.AST:
+    while isinstance(node, (ast.Attribute, ast.Subscript)):
+        node = node.value
+    return node
+
+
+def _imported(node: ast.AST, bound: set[str]) -> bool:
+    """True when ``node`` (an expression) is rooted at a name the program did not bind."""
+    root = _root(node)
+    return isinstance(root, ast.Name) and root.id not in bound
+
+
+def _check_write(node: ast.AST, bound: set[str]) -> None:
+    if isinstance(node, ast.Subscript) and isinstance(node.ctx, (ast.Store, ast.Del)) \
+            and _imported(node.value, bound):
+        _deny(node, f"writing into {ast.unparse(node.value)[:60]} (the kernel's own tables; "
+                    f"build your own dict or list)")
+    elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) \
+            and node.func.attr in MUTATORS and isinstance(node.func.value, (ast.Name, ast.Attribute)) \
+            and _imported(node.func.value, bound):
+        _deny(node, f"calling {ast.unparse(node.func)[:60]}(...) (it would change the kernel's "
+                    f"own tables)")
 
 
 def _deny(node: ast.AST, why: str) -> None:

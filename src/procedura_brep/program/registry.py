@@ -13,7 +13,14 @@ from ..errors import MateError, ProgramFormatError
 
 Detail = Literal["silhouette", "major", "sub"]
 DETAILS: tuple[str, ...] = ("silhouette", "major", "sub")
-NAME_RE = re.compile(r"^[a-z][a-z0-9_]*$")
+#: Part, frame and mate names (checked with ``fullmatch``: ``$`` would accept a trailing newline).
+NAME_RE = re.compile(r"[a-z][a-z0-9_]*")
+MAX_NAME = 64
+
+
+def valid_name(name: object) -> bool:
+    """A part, frame or mate name: snake_case, at most ``MAX_NAME`` characters."""
+    return isinstance(name, str) and len(name) <= MAX_NAME and NAME_RE.fullmatch(name) is not None
 
 
 @dataclass
@@ -52,7 +59,7 @@ class Registry:
     mates: list[MateDecl] = field(default_factory=list)
 
     def add_part(self, decl: PartDecl) -> None:
-        if not NAME_RE.match(decl.name):
+        if not valid_name(decl.name):
             raise ProgramFormatError(f"part name {decl.name!r} must be snake_case [a-z][a-z0-9_]*",
                                      line=decl.line)
         if decl.name in self.parts:
@@ -61,13 +68,20 @@ class Registry:
 
     def add_frames(self, part: str, frames: dict[str, Any], line: int | None) -> None:
         for fname in frames:
-            if not NAME_RE.match(fname):
-                raise ProgramFormatError(f"frame name {part}.{fname} must be snake_case", line=line)
+            if not valid_name(fname):
+                raise ProgramFormatError(f"frame name {fname!r:.80} of part {part!r:.80} must be "
+                                         f"snake_case [a-z][a-z0-9_]*", line=line)
         self.frames.setdefault(part, {}).update(frames)
         if line is not None:
             self.frame_lines.setdefault(part, line)
 
     def add_mate(self, decl: MateDecl) -> None:
+        for what, value in (("mate name", decl.name), ("child part", decl.child),
+                            ("child frame", decl.child_frame), ("parent part", decl.parent),
+                            ("parent frame", decl.parent_frame)):
+            if not valid_name(value):
+                raise ProgramFormatError(f"{what} {value!r:.80} must be snake_case [a-z][a-z0-9_]*",
+                                         line=decl.line)
         if any(m.name == decl.name for m in self.mates):
             raise MateError(decl.name, "a mate with this name is declared twice; pass name=...")
         self.mates.append(decl)

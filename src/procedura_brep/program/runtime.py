@@ -2,12 +2,18 @@
 
 Steps: policy check -> exec with restricted builtins -> evaluate each part (a failure is a
 finding naming the part, the program line and the exception) -> build each mate's features and
-resolve its fit -> solve placement in plan order -> serialise.
+resolve its fit -> solve placement in plan order -> size caps -> serialise.
+
+Module code and every part run in their own empty ``contextvars`` context, so a builder
+(``BuildPart()``) that module code leaves open cannot capture the primitives a part creates;
+leaving one open is itself an error. build123d's class-level tables are snapshotted before the
+program runs and compared after: a program that wrote into one fails (nothing is cached).
 """
 
 from __future__ import annotations
 
 import builtins
+import contextvars
 import math
 import sys
 import time
@@ -16,11 +22,13 @@ from typing import Any
 
 import numpy as np
 
+from ..config import SANDBOX, SandboxLimits
 from ..errors import MateError, ProceduraError, ProgramFormatError
+from ..materials import MATERIALS
 from ..mates import check_options, get_type
 from ..mates import placement as pl
-from . import cache, policy, registry
-from .model import CompiledMate, CompiledModel, CompiledPart, Finding
+from . import cache, caps, guards, policy, registry
+from .model import CompiledMate, CompiledModel, CompiledPart, Finding, cap_text
 from .sections import parse_sections
 
 SAFE_BUILTINS = (
@@ -62,8 +70,37 @@ def _program_line(tb: Any) -> int | None:
 
 
 def _exc_text(exc: BaseException) -> str:
-    text = str(exc).strip().splitlines()
-    return f"{type(exc).__name__}: {text[0] if text else ''}".rstrip(": ")
+    try:
+        raw = str(exc)
+    except Exception:  # noqa: BLE001 - a hostile __str__
+        raw = ""
+    raw = raw[:SANDBOX.message_chars * 2].strip()
+    first = raw.splitlines()[0] if raw else ""
+    return cap_text(f"{type(exc).__name__}: {first}".rstrip(": "))
+
+
+#: OCCT exception types that, in a primitive, mean a size was zero or negative.
+_OCCT_SIZE_ERRORS = ("Standard_DomainError", "Standard_ConstructionError", "Standard_OutOfRange",
+                     "gp_VectorWithNullMagnitude", "StdFail_NotDone")
+
+
+def _explain(exc: BaseException, decl: registry.PartDecl, params: dict[str, Any],
+             glb: dict[str, Any]) -> str:
+    """Why a part failed, in words: the exception, plus the params it reads that are <= 0
+    when the CAD kernel refused a construction (the usual cause of a raw OCCT error)."""
+    text = _exc_text(exc)
+    bad = [n for n in cache.params_read(decl.fn.__code__, glb, params)
+           if isinstance(params.get(n), (int, float)) and not isinstance(params.get(n), bool)
+           and params[n] <= 0]
+    occt = type(exc).__name__ in _OCCT_SIZE_ERRORS or type(exc).__module__.startswith("OCP")
+    if bad and (occt or isinstance(exc, ValueError)):
+        vals = ", ".join(f"{n} = {params[n]:g}" for n in bad)
+        return (f"{text} (the CAD kernel refused a construction; this part reads {vals}: sizes "
+                f"must be > 0)")
+    if occt:
+        return (f"{text} (the CAD kernel refused a construction: usually a zero or negative "
+                f"size, or a fillet/chamfer too big for its edges)")
+    return text
 
 
 def loc_matrix(loc: Any) -> np.ndarray:
@@ -98,15 +135,18 @@ class _Build:
         self.solids: dict[str, Any] = {}
         self.world: dict[str, np.ndarray] = {}
         self.cached_bytes: dict[str, bytes] = {}
+        self.figures: dict[str, caps.Figures] = {}
+        self.limits: SandboxLimits = SANDBOX
 
     def fail(self, code: str, message: str, **kw: Any) -> None:
         self.findings.append(Finding(code, message, **kw))
 
 
-def compile_program(source: str, *, name: str = "model",
-                    cache_dir: str | int | None = None) -> CompiledModel:
+def compile_program(source: str, *, name: str = "model", cache_dir: str | int | None = None,
+                    limits: SandboxLimits = SANDBOX) -> CompiledModel:
     """Compile ``source`` in this process. Call only inside the sandbox child."""
     b = _Build(source, name)
+    b.limits = limits
     t0 = time.perf_counter()
     try:
         sections = parse_sections(source)
@@ -120,6 +160,43 @@ def compile_program(source: str, *, name: str = "model",
         return CompiledModel(name, {}, [], [], b.findings, b.timings)
     reg = registry.push()
     glb = restricted_globals()
+    tables = guards.baseline()
+    try:
+        contextvars.Context().run(_exec_module, b, source, glb)
+    finally:
+        registry.pop()
+    params = {k: glb.get(k) for k in sections.params}
+    b.timings["exec_s"] = time.perf_counter() - t0
+    if not b.findings and not reg.parts:
+        b.fail("no-parts", "the program declares no @part functions")
+    if len(reg.parts) > limits.max_parts:
+        b.fail("too-large", f"the program declares {len(reg.parts)} parts; the cap is "
+                            f"{limits.max_parts} (config.SANDBOX.max_parts)", value=len(reg.parts),
+               limit=limits.max_parts)
+    _check_materials(b, reg)
+    if any(f.severity == "error" for f in b.findings):
+        return CompiledModel(name, params, [], [], b.findings, b.timings)
+    mates = _resolve_mates(b, reg, params)
+    keys = cache.part_keys(source, sections, reg, params, mates, glb)
+    hits = _load_cached(b, keys, cache_dir)
+    _eval_parts(b, reg, hits, params, glb)
+    contextvars.Context().run(_apply_features, b, reg, mates, hits)
+    _place(b, reg, mates)
+    _check_model_caps(b, reg)
+    changed = guards.changed_tables(tables)
+    if changed:
+        b.fail("policy", f"the program modified build123d's class-level table(s) "
+                         f"{', '.join(changed[:5])}; programs may not change the kernel")
+    # state a part read that its key does not cover (a part that mutated a module-level value
+    # another part reads): those keys are dropped, so nothing stale is cached
+    after = cache.part_keys(source, sections, reg, params, mates, glb)
+    keys = {n: k for n, k in keys.items() if k and after.get(n) == k}
+    b.timings["cache_hits"] = float(len(hits))
+    return _serialise(b, reg, params, mates, time.perf_counter() - t0, keys)
+
+
+def _exec_module(b: _Build, source: str, glb: dict[str, Any]) -> None:
+    """Run the module body (in its own context: see the module docstring)."""
     try:
         exec(compile(source, "<program>", "exec"), glb)  # noqa: S102 - policy-checked, sandboxed
     except ProceduraError as exc:
@@ -127,22 +204,24 @@ def compile_program(source: str, *, name: str = "model",
                mate=getattr(exc, "mate", None))
     except BaseException as exc:  # noqa: BLE001 - any failure of untrusted code is a finding
         b.fail("module-exception", _exc_text(exc), line=_program_line(exc.__traceback__))
-    finally:
-        registry.pop()
-    params = {k: glb.get(k) for k in sections.params}
-    b.timings["exec_s"] = time.perf_counter() - t0
-    if not b.findings and not reg.parts:
-        b.fail("no-parts", "the program declares no @part functions")
-    if any(f.severity == "error" for f in b.findings):
-        return CompiledModel(name, params, [], [], b.findings, b.timings)
-    mates = _resolve_mates(b, reg, params)
-    keys = cache.part_keys(source, sections, reg, params, mates, glb)
-    hits = _load_cached(b, keys, cache_dir)
-    _eval_parts(b, reg, hits)
-    _apply_features(b, reg, mates, hits)
-    _place(b, reg, mates)
-    b.timings["cache_hits"] = float(len(hits))
-    return _serialise(b, reg, params, mates, time.perf_counter() - t0, keys)
+    if guards.builder_open():
+        b.fail("policy", "module-level code left a builder context (BuildPart/BuildSketch/"
+                         "BuildLine) open; open builders only inside a part function, with `with`")
+
+
+def _check_materials(b: _Build, reg: registry.Registry) -> None:
+    for decl in reg.parts.values():
+        if not isinstance(decl.material, str) or decl.material not in MATERIALS:
+            b.fail("material", f"part {decl.name}: unknown material {decl.material!r:.60}; use one "
+                               f"of: {', '.join(MATERIALS)}", part=decl.name, line=decl.line)
+
+
+def _check_model_caps(b: _Build, reg: registry.Registry) -> None:
+    if not b.figures or any(f.severity == "error" for f in b.findings):
+        return
+    why = caps.model_violation(b.figures, b.world, b.limits)
+    if why:
+        b.fail("too-large", why)
 
 
 def _load_cached(b: _Build, keys: dict[str, str], cache_dir: str | int | None) -> set[str]:
@@ -167,26 +246,42 @@ def _load_cached(b: _Build, keys: dict[str, str], cache_dir: str | int | None) -
     return hits
 
 
-def _eval_parts(b: _Build, reg: registry.Registry, cached: set[str]) -> None:
-    from .. import kernel
+def _eval_parts(b: _Build, reg: registry.Registry, cached: set[str], params: dict[str, Any],
+                glb: dict[str, Any]) -> None:
     for decl in reg.parts.values():
         if decl.name in cached:
+            b.figures[decl.name] = caps.measure(b.solids[decl.name].wrapped, b.limits)
             continue
         t = time.perf_counter()
-        try:
-            solid = _as_solid(decl.fn())
-            vol = kernel.volume(solid.wrapped)
-            if not vol > 0:
-                raise ProgramFormatError(f"the solid is empty (volume {vol:g} mm^3)")
-            if not kernel.is_valid(solid.wrapped):
-                raise ProgramFormatError("the solid is not a valid B-rep (BRepCheck failed)")
-            b.solids[decl.name] = solid
-        except BaseException as exc:  # noqa: BLE001
-            if isinstance(exc, (KeyboardInterrupt, SystemExit)):
-                raise
-            line = _program_line(exc.__traceback__) or decl.line
-            b.fail("part-exception", f"part {decl.name}: {_exc_text(exc)}", part=decl.name, line=line)
+        contextvars.Context().run(_eval_part, b, decl, params, glb)
         b.timings[f"part:{decl.name}"] = time.perf_counter() - t
+
+
+def _eval_part(b: _Build, decl: registry.PartDecl, params: dict[str, Any], glb: dict[str, Any]) -> None:
+    """Run one part function (in its own context) and check what it returned."""
+    from .. import kernel
+    try:
+        solid = _as_solid(decl.fn())
+        if guards.builder_open():
+            raise ProgramFormatError("the part left a builder context open")
+        fig = caps.measure(solid.wrapped, b.limits)
+        why = caps.part_violation(decl.name, fig, b.limits)
+        if why:
+            b.fail("too-large", why, part=decl.name, line=decl.line)
+            return
+        vol = kernel.volume(solid.wrapped)
+        if not vol > 0:
+            raise ProgramFormatError(f"the solid is empty (volume {vol:g} mm^3)")
+        if not kernel.is_valid(solid.wrapped):
+            raise ProgramFormatError("the solid is not a valid B-rep (BRepCheck failed)")
+        b.figures[decl.name] = fig
+        b.solids[decl.name] = solid
+    except BaseException as exc:  # noqa: BLE001
+        if isinstance(exc, (KeyboardInterrupt, SystemExit)):
+            raise
+        line = _program_line(exc.__traceback__) or decl.line
+        b.fail("part-exception", f"part {decl.name}: {_explain(exc, decl, params, glb)}",
+               part=decl.name, line=line)
 
 
 def _frame(b: _Build, reg: registry.Registry, mname: str, part: str, frame: str) -> np.ndarray:
@@ -279,6 +374,7 @@ def _place(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]]) -> No
     carriers = {n: copy.copy(s) for n, s in b.solids.items()}
     for c in carriers.values():
         c.locate(Location())
+    jointed = {names[0]}
     for m in mates:
         decl, mtype, opts = m["decl"], m["type"], m["options"]
         home = opts.get("home") if mtype.kind == "kinematic" else None
@@ -295,8 +391,11 @@ def _place(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]]) -> No
         elif decl.child not in b.world:
             b.world[decl.child] = solved
             m["primary"] = True
-            if decl.child in carriers and decl.parent in carriers:
+            # a carrier is where the closed form says only if its own chain of joints ran
+            # (a failed part upstream leaves its carrier at the origin)
+            if decl.child in carriers and decl.parent in carriers and decl.parent in jointed:
                 _place_by_joint(carriers, reg, m, solved, kinematic, rigid_place, b)
+                jointed.add(decl.child)
         else:
             m["primary"] = False
             dist, ang = pl.residual(b.world[decl.child], solved)

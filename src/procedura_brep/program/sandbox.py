@@ -1,10 +1,15 @@
 """The sandboxed compile, parent side: a warm worker process and the call that uses it.
 
 :class:`Worker` starts ``python -m procedura_brep.program.worker`` once (it imports build123d,
-~3 s) with an environment stripped of credentials, and sends it one request per compile. The
-worker forks a fresh child per compile with CPU, memory, file-size and open-file limits, a
-scratch directory and an empty environment; a crash, hang or memory blow-up kills only that
-child and comes back as a :class:`CompileError` with a finding that says what happened.
+~3 s) with an allowlisted environment (:data:`ENV_ALLOW`: no credentials can reach it), and
+sends it one request per compile. The worker forks a fresh child per compile with CPU, memory,
+file-size and open-file limits, a scratch directory and an empty environment; a crash, hang or
+memory blow-up kills only that child and comes back as a :class:`CompileError` with a finding
+that says what happened. The child's reply is untrusted: :mod:`.trust` validates every field.
+
+Temporary folders are named ``procedura-parts-<pid>-*`` / ``procedura-compile-<pid>-*`` after
+the process that owns them; a new worker removes those whose owner is dead (a killed parent
+cannot clean up after itself).
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ import logging
 import os
 import re
 import shutil
+import stat
 import subprocess
 import sys
 import tempfile
@@ -24,11 +30,23 @@ from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 from ..config import SANDBOX, SandboxLimits
-from ..errors import CompileError
-from .model import CompiledModel, Finding, from_json
+from ..errors import CompileError, ProgramFormatError
+from .model import CompiledModel, Finding
+from .trust import ResultError, finding_from_json, model_from_json
 
 log = logging.getLogger(__name__)
-SECRET_RE = re.compile(r"KEY|TOKEN|SECRET|PASSWORD|CREDENTIAL|AUTH|COOKIE|SESSION", re.I)
+#: The only environment variables the worker inherits (exact names or, ending in ``*``,
+#: prefixes): locale, paths, the Python path, headless-rendering switches and this tool's own
+#: non-secret settings. Everything else (API keys, ``DATABASE_URL``, ``GH_PAT`` ...) stays out.
+ENV_ALLOW = ("PATH", "HOME", "USER", "LOGNAME", "LANG", "LANGUAGE", "LC_*", "TZ", "TMPDIR",
+             "TEMP", "TMP", "PYTHONPATH", "PYTHONHASHSEED", "PYTHONDONTWRITEBYTECODE",
+             "VIRTUAL_ENV", "CONDA_PREFIX", "LD_LIBRARY_PATH", "MUJOCO_GL", "PYOPENGL_PLATFORM",
+             "EGL_PLATFORM", "MESA_*", "LIBGL_*", "GALLIUM_DRIVER", "DISPLAY", "XDG_RUNTIME_DIR",
+             "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "CASROOT", "CSF_*",
+             "FONTCONFIG_*", "PROCEDURA_BREP_NO_NETWORK", "PROCEDURA_UPDATE_GOLDEN")
+#: Even an allowlisted name is dropped when it looks like a credential (``PROCEDURA_*_KEY``).
+SECRET_RE = re.compile(r"KEY|TOKEN|SECRET|PASSWORD|PASSWD|CREDENTIAL|AUTH|COOKIE|SESSION|PAT\b", re.I)
+TEMP_PREFIXES = ("procedura-parts-", "procedura-compile-")
 SIGNAL_MEANING = {
     "SIGXCPU": "exceeded its CPU time limit", "SIGKILL": "was killed (CPU or memory limit)",
     "SIGSEGV": "crashed the CAD kernel (segmentation fault)", "SIGABRT": "aborted in the CAD kernel",
@@ -36,9 +54,49 @@ SIGNAL_MEANING = {
 }
 
 
+def _allowed(name: str) -> bool:
+    if SECRET_RE.search(name):
+        return False
+    return any(name == a or (a.endswith("*") and name.startswith(a[:-1])) for a in ENV_ALLOW)
+
+
 def clean_env() -> dict[str, str]:
-    """The current environment minus anything that looks like a credential."""
-    return {k: v for k, v in os.environ.items() if not SECRET_RE.search(k)}
+    """The worker's environment: only the allowlisted variables (:data:`ENV_ALLOW`)."""
+    return {k: v for k, v in os.environ.items() if _allowed(k)}
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def clean_stale_temp(folder: str | None = None) -> list[str]:
+    """Remove ``procedura-parts-<pid>-*`` / ``procedura-compile-<pid>-*`` folders whose owning
+    process is dead; returns what was removed. Folders of live processes, and names without
+    a pid, are left alone."""
+    folder = folder or tempfile.gettempdir()
+    removed: list[str] = []
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return removed
+    for entry in names:
+        prefix = next((p for p in TEMP_PREFIXES if entry.startswith(p)), None)
+        if prefix is None:
+            continue
+        pid_text = entry[len(prefix):].split("-", 1)[0]
+        if not pid_text.isdigit() or int(pid_text) == os.getpid() or _pid_alive(int(pid_text)):
+            continue
+        path = os.path.join(folder, entry)
+        if os.path.isdir(path) and not os.path.islink(path):
+            shutil.rmtree(path, ignore_errors=True)
+            removed.append(path)
+    return removed
 
 
 @dataclass(frozen=True)
@@ -58,7 +116,12 @@ class Worker:
             cache_dir: the per-part cache folder (default: a private temp folder per worker).
         """
         self._own_cache = cache_dir is None
-        self.cache_dir = str(cache_dir) if cache_dir else tempfile.mkdtemp(prefix="procedura-parts-")
+        try:
+            clean_stale_temp()
+        except OSError:  # pragma: no cover - a best effort
+            log.debug("stale temp cleanup failed", exc_info=True)
+        self.cache_dir = str(cache_dir) if cache_dir else tempfile.mkdtemp(
+            prefix=f"{TEMP_PREFIXES[0]}{os.getpid()}-")
         self._proc: subprocess.Popen[str] | None = None
         self._lock = threading.Lock()
         self._ids = itertools.count(1)
@@ -100,9 +163,10 @@ class Worker:
         Returns the model (whose ``findings`` may hold part or mate errors). Raises
         :class:`CompileError` when the child was killed, crashed or timed out.
         """
+        refuse_oversized(source, options.limits)
         with self._lock:
             proc = self._ensure_ready()
-            scratch = tempfile.mkdtemp(prefix="procedura-compile-")
+            scratch = tempfile.mkdtemp(prefix=f"{TEMP_PREFIXES[1]}{os.getpid()}-")
             try:
                 req = {"id": next(self._ids), "source": source, "name": options.name,
                        "scratch": scratch, "limits": asdict(options.limits),
@@ -117,8 +181,12 @@ class Worker:
                 if not line:
                     self.close()
                     raise CompileError("the compile worker died; it will be restarted on the next call")
-                reply = json.loads(line)
-                model = _result(reply, scratch, options.limits)
+                try:
+                    reply = json.loads(line)
+                except ValueError:
+                    reply = {}
+                model = _result(reply if isinstance(reply, dict) else {}, scratch, options.limits,
+                                name=options.name)
                 if options.cache and model.ok:
                     from .cache import store_model
                     store_model(self.cache_dir, model)
@@ -127,27 +195,62 @@ class Worker:
                 shutil.rmtree(scratch, ignore_errors=True)
 
 
-def _result(reply: dict[str, Any], scratch: str, limits: SandboxLimits) -> CompiledModel:
+def refuse_oversized(source: str, limits: SandboxLimits = SANDBOX) -> None:
+    """Raise :class:`CompileError` (finding ``too-large``, naming the cap) for a program over
+    ``limits.source_bytes``: call it before paying for anything else."""
+    from .sections import check_size
+    try:
+        check_size(source, limit=limits.source_bytes)
+    except ProgramFormatError as exc:
+        f = Finding("too-large", str(exc))
+        raise CompileError(f.message, [f]) from None
+
+
+def _read_result(path: str, limits: SandboxLimits) -> Any:
+    """The child's ``result.json``: a regular file (not a link), bounded in size, valid JSON."""
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+    with os.fdopen(fd, "rb") as fh:
+        if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
+            raise ResultError("the compile child returned an invalid result: result.json is not a file")
+        data = fh.read(limits.result_bytes + 1)
+    if len(data) > limits.result_bytes:
+        raise ResultError(f"the compile child returned an invalid result: result.json is over "
+                          f"{limits.result_bytes} bytes (config.SANDBOX.result_bytes)")
+    try:
+        return json.loads(data)
+    except (ValueError, RecursionError):
+        raise ResultError("the compile child returned an invalid result: result.json is not "
+                          "valid JSON") from None
+
+
+def _result(reply: dict[str, Any], scratch: str, limits: SandboxLimits, *,
+            name: str | None = None) -> CompiledModel:
+    """The model from the child's reply and ``result.json``, or a :class:`CompileError` with a
+    finding (a killed, timed-out or crashed child, or a result that breaks the schema)."""
     path = os.path.join(scratch, "result.json")
     status, detail = reply.get("status"), reply.get("detail")
     if status == "timeout":
         f = Finding("timeout", f"the program did not finish within the wall-clock limit "
                                f"({limits.wall_s:g} s)", limit=limits.wall_s)
         raise CompileError(f.message, [f])
-    if os.path.exists(path):
-        with open(path, encoding="utf-8") as fh:
-            payload = json.load(fh)
-        if "fatal" in payload:
-            f = Finding(**payload["fatal"])
-            raise CompileError(f.message, [f])
-        return from_json(payload)
+    if os.path.lexists(path):
+        try:
+            payload = _read_result(path, limits)
+            if isinstance(payload, dict) and "fatal" in payload:
+                f = finding_from_json(payload["fatal"], "fatal")
+                raise CompileError(f.message, [f])
+            return model_from_json(payload, name=name)
+        except (ResultError, OSError) as exc:
+            f = Finding("bad-result", str(exc))
+            raise CompileError(f.message, [f]) from None
     if status == "signal":
-        meaning = SIGNAL_MEANING.get(str(detail), f"was killed by {detail}")
+        detail = str(detail)[:40]
+        meaning = SIGNAL_MEANING.get(detail, f"was killed by {detail}")
         if detail in ("SIGXCPU", "SIGKILL"):
             meaning += f" (CPU limit {limits.cpu_s} s, memory limit {limits.address_space_bytes // 2**20} MiB)"
         f = Finding("killed", f"the program {meaning}")
         raise CompileError(f.message, [f])
-    f = Finding("crash", f"the compile child exited without a result ({status} {detail})")
+    f = Finding("crash", f"the compile child exited without a result ({str(status)[:40]} {str(detail)[:80]})")
     raise CompileError(f.message, [f])
 
 
@@ -176,7 +279,8 @@ def compile_source(source: str, *, name: str = "model", limits: SandboxLimits | 
     return (worker or default_worker()).compile(source, opts)
 
 
-__all__ = ["CompileOptions", "Worker", "compile_source", "default_worker", "clean_env", "replace"]
+__all__ = ["CompileOptions", "Worker", "compile_source", "default_worker", "clean_env",
+           "clean_stale_temp", "kill_default_worker", "refuse_oversized", "replace"]
 
 
 def kill_default_worker() -> None:

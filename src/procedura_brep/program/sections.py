@@ -11,6 +11,13 @@ sections in this order, each opened by a marker comment on its own line::
 
 The params section holds one assignment per line, ``name = <expression>  # unit, meaning``,
 where the expression uses numbers, earlier params and ``math``.
+
+One line numbering everywhere: Python's (lines end at ``\n``, ``\r\n`` or ``\r``). Characters
+that ``str.splitlines`` also treats as line breaks but Python does not (vertical tab, form
+feed, ``\x1c``-``\x1e``, NEL, the Unicode line and paragraph separators) would shift every
+line number used by sections, edits and cache keys against the interpreter's, so a program
+that contains one is refused with the line. A program longer than
+``config.SANDBOX.source_bytes`` is refused before anything else reads it.
 """
 
 from __future__ import annotations
@@ -19,10 +26,37 @@ import ast
 import re
 from dataclasses import dataclass, field
 
+from ..config import SANDBOX
 from ..errors import ProgramFormatError
 
 SECTION_NAMES: tuple[str, ...] = ("params", "helpers", "parts", "frames", "assembly")
-MARKER_RE = re.compile(r"^#\s*===\s*([A-Za-z_]+)\s*===\s*$")
+MARKER_RE = re.compile(r"#\s*===\s*([A-Za-z_]+)\s*===\s*")
+#: Line breaks for ``str.splitlines`` that are not line breaks for Python.
+ODD_BREAKS_RE = re.compile("[\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029]")
+
+
+def check_size(source: str, *, limit: int | None = None) -> None:
+    """Refuse a program over the size cap (``config.SANDBOX.source_bytes``), naming the cap."""
+    cap = SANDBOX.source_bytes if limit is None else limit
+    size = len(source) if len(source) * 4 <= cap else len(source.encode("utf-8", "surrogatepass"))
+    if size > cap:
+        raise ProgramFormatError(f"the program is {size} bytes; programs are limited to {cap} bytes "
+                                 f"(config.SANDBOX.source_bytes)")
+
+
+def check_text(source: str, *, limit: int | None = None) -> None:
+    """Refuse a program over the size cap or with a character that breaks line numbering.
+
+    Raises:
+        ProgramFormatError: naming the cap, or the line and the character.
+    """
+    check_size(source, limit=limit)
+    m = ODD_BREAKS_RE.search(source)
+    if m:
+        line = source.count("\n", 0, m.start()) + 1
+        raise ProgramFormatError(f"the character {m.group()!r} (a line break for some tools but "
+                                 f"not for Python) is not allowed in a program; remove it",
+                                 line=line)
 
 
 def marker(name: str) -> str:
@@ -71,10 +105,11 @@ def parse_sections(source: str) -> Sections:
             the offending marker), the text is not Python, or a params line is not a simple
             ``name = expression`` assignment.
     """
+    check_text(source)
     starts: dict[str, int] = {}
     order: list[str] = []
     for no, text in enumerate(source.splitlines(), start=1):
-        m = MARKER_RE.match(text.strip())
+        m = MARKER_RE.fullmatch(text.strip())
         if not m:
             continue
         name = m.group(1).lower()
@@ -117,7 +152,11 @@ def parse_sections(source: str) -> Sections:
             raise ProgramFormatError(f"param {name!r} is assigned twice (first at line "
                                      f"{sec.params[name].line})", line=node.lineno)
         text = lines[node.lineno - 1]
-        expr = ast.get_source_segment(source, node.value) or ""
-        comment = text[text.index("#"):] if "#" in text[node.value.end_col_offset:] else ""
+        # one line: cut by UTF-8 byte offsets (ast.get_source_segment re-splits the whole
+        # source on every call, quadratic in a long program)
+        raw = text.encode("utf-8")
+        expr = raw[node.value.col_offset:node.value.end_col_offset].decode("utf-8")
+        tail = raw[node.value.end_col_offset:].decode("utf-8")
+        comment = tail[tail.index("#"):] if "#" in tail else ""
         sec.params[name] = Param(name, expr, node.lineno, comment)
     return sec

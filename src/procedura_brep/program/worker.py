@@ -20,19 +20,30 @@ import time
 from typing import Any
 
 
-#: The unprivileged account a root-run worker's children switch to (Debian's ``nobody``).
-NOBODY = "nobody"
+#: A root-run worker's children each switch to their own unprivileged uid (and gid),
+#: ``CHILD_UID_BASE + pid % CHILD_UID_SPAN``: no passwd entry, no files, and no other process
+#: (not even another compile's child) to signal or trace.
+CHILD_UID_BASE = 2_000_000_000
+CHILD_UID_SPAN = 1_000_000
 #: RLIMIT_NPROC after the switch: room for OCCT's and BLAS's threads, not for a fork bomb.
 NOBODY_NPROC = 256
+
+
+def child_uid(pid: int) -> int:
+    """The uid (and gid) a root-run worker's child ``pid`` switches to."""
+    return CHILD_UID_BASE + pid % CHILD_UID_SPAN
 
 
 def _limit_child(limits: dict[str, Any], scratch: str, cache_dir: str | None) -> int | None:
     """Apply every limit to this (child) process; returns an fd of the part cache, if any.
 
-    When the worker runs as root (CI, containers), the child also drops to ``nobody``: the
-    scratch dir is handed over first, and the cache folder stays readable through an fd opened
-    before the switch, so the program can read neither root-only files (such as the calling
-    process's ``/proc/<pid>/environ``) nor write outside world-writable places.
+    Then the OS layers of :mod:`.isolation` (a private network namespace, no-new-privs, a
+    seccomp filter denying sockets and exec), each where the kernel allows it. When the worker
+    runs as root (CI, containers), the child also drops to its own unprivileged uid
+    (:func:`child_uid`): the scratch dir is handed over first, and the cache folder stays
+    readable through an fd opened before the switch, so the program can read neither root-only
+    files (such as the calling process's ``/proc/<pid>/environ``) nor write outside
+    world-writable places.
     """
     os.setsid()
     cpu = int(limits["cpu_s"])
@@ -51,30 +62,30 @@ def _limit_child(limits: dict[str, Any], scratch: str, cache_dir: str | None) ->
     os.dup2(log, 1)
     os.dup2(log, 2)
     os.closerange(3, 4096)
+    log = 1
     cache_fd = None
     if cache_dir:
         try:
             cache_fd = os.open(cache_dir, os.O_RDONLY | os.O_DIRECTORY)
         except OSError:
             cache_fd = None
+    from .isolation import isolate
+    layers = isolate()
     if os.geteuid() == 0:
         _drop_root(scratch)
+        layers.append("own_uid")
+    os.write(log, ("isolation: " + " ".join(layers) + "\n").encode())
     return cache_fd
 
 
 def _drop_root(scratch: str) -> None:
-    import pwd
-    try:
-        entry = pwd.getpwnam(NOBODY)
-        uid, gid = entry.pw_uid, entry.pw_gid
-    except KeyError:
-        uid = gid = 65534
+    uid = gid = child_uid(os.getpid())
     os.chown(scratch, uid, gid)
     os.chown(os.path.join(scratch, "child.log"), uid, gid)
     os.setgroups([])
     os.setgid(gid)
     os.setuid(uid)
-    # nobody's processes and threads together (the kernel's threads count): bounds a fork bomb
+    # this uid's processes and threads together (the kernel's threads count): bounds a fork bomb
     resource.setrlimit(resource.RLIMIT_NPROC, (NOBODY_NPROC, NOBODY_NPROC))
 
 
@@ -84,7 +95,10 @@ def _child(req: dict[str, Any]) -> None:
     from .model import Finding, to_json
     from .runtime import compile_program
     try:
-        model = compile_program(req["source"], name=req.get("name", "model"), cache_dir=cache_fd)
+        from ..config import SandboxLimits
+        limits = SandboxLimits(**req["limits"])
+        model = compile_program(req["source"], name=req.get("name", "model"), cache_dir=cache_fd,
+                                limits=limits)
         payload = to_json(model)
     except MemoryError:
         payload = {"fatal": Finding("memory", "the program ran out of memory (address-space limit "
@@ -160,8 +174,12 @@ def main() -> None:
     _stub_unused_imports()
     import build123d  # noqa: F401 - the whole point: pay the import once
 
-    from . import runtime  # noqa: F401
+    from . import guards, runtime  # noqa: F401
     from .. import kernel  # noqa: F401
+    guards.harden_kernel()
+    guards.baseline()
+    from . import caps, isolation, trust  # noqa: F401 - imported before any child drops privileges
+    isolation.preload()
     out = sys.stdout
     out.write(json.dumps({"ready": True, "pid": os.getpid()}) + "\n")
     out.flush()

@@ -1,0 +1,245 @@
+"""The parent trusts nothing from the sandbox child: every field of its reply is validated.
+
+The child runs untrusted code, so its ``result.json`` is hostile input. Names end up in file
+paths (meshes, cache entries) and in USD prim paths, numbers in matrices and physics, and the
+material in every export. :func:`model_from_json` checks each field against what the compiler
+can legitimately produce and raises :class:`ResultError` (one line naming the field and why) at
+the first that is not: cache keys are sha256 hex digests, names fully match ``[a-z0-9_]+``,
+materials are library keys, every number is finite, matrices are rigid transforms, and every
+count and string is bounded by ``config.SANDBOX``.
+"""
+
+from __future__ import annotations
+
+import base64
+import binascii
+import math
+import re
+from typing import Any
+
+import numpy as np
+
+from ..config import SANDBOX
+from ..errors import ProceduraError
+from ..materials import MATERIALS
+from ..mates import TYPES
+from .model import CompiledMate, CompiledModel, CompiledPart, Finding, cap_text
+from .registry import DETAILS
+
+#: Part, frame and mate names: the identifiers every exporter writes (USD prims, URDF links,
+#: mesh file names), exactly what the registry accepts (``[a-z0-9_]+`` starting with a letter,
+#: so also a valid USD prim name). Checked with ``re.fullmatch`` (``$`` would accept a
+#: trailing newline).
+NAME = re.compile(r"[a-z][a-z0-9_]{0,63}")
+#: Param names: Python identifiers.
+IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+HEX_KEY = re.compile(r"[0-9a-f]{64}")
+SEVERITIES = ("error", "warning", "info")
+MAX_NAME = 128  # params and other identifiers
+MAX_TEXT = 4096
+MAX_ITEMS = 10_000
+MAX_DEPTH = 4
+RIGID_TOL = 1e-6
+
+
+class ResultError(ProceduraError):
+    """The child's result breaks the result schema (a compromised or broken child)."""
+
+
+def _bad(where: str, why: str) -> ResultError:
+    return ResultError(cap_text(f"the compile child returned an invalid result: {where} {why}", 300))
+
+
+def _name(v: Any, where: str, pattern: re.Pattern[str] = NAME) -> str:
+    if not isinstance(v, str) or len(v) > MAX_NAME or not pattern.fullmatch(v):
+        raise _bad(where, f"= {v!r:.80} is not a name matching {pattern.pattern}")
+    return v
+
+
+def _text(v: Any, where: str, limit: int = MAX_TEXT) -> str:
+    if not isinstance(v, str):
+        raise _bad(where, f"is a {type(v).__name__}, not text")
+    return cap_text(v, limit)
+
+
+def _num(v: Any, where: str, *, lo: float = -math.inf) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < lo:
+        raise _bad(where, f"= {v!r:.40} is not a finite number" + (f" >= {lo:g}" if lo > -math.inf else ""))
+    return float(v)
+
+
+def _int(v: Any, where: str, lo: int = 0) -> int:
+    if isinstance(v, bool) or not isinstance(v, int) or v < lo or v > 10**9:
+        raise _bad(where, f"= {v!r:.40} is not an integer in [{lo}, 1e9]")
+    return v
+
+
+def _list(v: Any, where: str, limit: int = MAX_ITEMS) -> list[Any]:
+    if not isinstance(v, list) or len(v) > limit:
+        raise _bad(where, f"is not a list of at most {limit} items")
+    return v
+
+
+def _dict(v: Any, where: str, limit: int = MAX_ITEMS) -> dict[str, Any]:
+    if not isinstance(v, dict) or len(v) > limit:
+        raise _bad(where, f"is not an object of at most {limit} entries")
+    return v
+
+
+def _matrix(v: Any, where: str) -> np.ndarray:
+    try:
+        m = np.array(v, dtype=float)
+    except (TypeError, ValueError):
+        raise _bad(where, "is not a 4x4 matrix of numbers") from None
+    if m.shape != (4, 4) or not np.all(np.isfinite(m)):
+        raise _bad(where, "is not a finite 4x4 matrix")
+    r = m[:3, :3]
+    if (np.abs(m[3] - [0, 0, 0, 1]).max() > RIGID_TOL or np.abs(r.T @ r - np.eye(3)).max() > RIGID_TOL
+            or np.linalg.det(r) < 0 or np.abs(m[:3, 3]).max() > 1e9):
+        raise _bad(where, "is not a rigid transform")
+    return m
+
+
+def _plain(v: Any, where: str, depth: int = 0) -> Any:
+    """JSON data of bounded depth and size whose numbers are finite."""
+    if depth > MAX_DEPTH:
+        raise _bad(where, "is nested too deeply")
+    if v is None or isinstance(v, bool):
+        return v
+    if isinstance(v, (int, float)):
+        return _num(v, where)
+    if isinstance(v, str):
+        return _text(v, where, MAX_NAME * 4)
+    if isinstance(v, list):
+        return [_plain(x, where, depth + 1) for x in _list(v, where, 256)]
+    if isinstance(v, dict):
+        return {_text(k, where, MAX_NAME): _plain(x, where, depth + 1) for k, x in _dict(v, where, 256).items()}
+    raise _bad(where, f"holds a {type(v).__name__}")
+
+
+def finding_from_json(f: Any, where: str) -> Finding:
+    """A finding from the child's JSON, validated."""
+    f = _dict(f, where, 16)
+    extra = set(f) - {"code", "message", "part", "mate", "line", "value", "limit", "severity"}
+    if extra:
+        raise _bad(where, f"has unknown fields {sorted(extra)}")
+    opt_num = {k: (None if f.get(k) is None or (isinstance(f[k], float) and math.isnan(f[k]))
+                   else _num(f[k], f"{where}.{k}")) for k in ("value", "limit")}
+    sev = f.get("severity", "error")
+    if sev not in SEVERITIES:
+        raise _bad(f"{where}.severity", f"= {sev!r:.40} is not one of {', '.join(SEVERITIES)}")
+    return Finding(code=_name(f.get("code"), f"{where}.code", re.compile(r"[a-z0-9_-]+")),
+                   message=_text(f.get("message"), f"{where}.message", SANDBOX.message_chars),
+                   part=None if f.get("part") is None else _name(f["part"], f"{where}.part"),
+                   mate=None if f.get("mate") is None else _name(f["mate"], f"{where}.mate"),
+                   line=None if f.get("line") is None else _int(f["line"], f"{where}.line"),
+                   severity=sev, **opt_num)
+
+
+def _part(p: Any, i: int) -> CompiledPart:
+    where = f"parts[{i}]"
+    p = _dict(p, where, 32)
+    name = _name(p.get("name"), f"{where}.name")
+    where = f"part {name}"
+    material = p.get("material")
+    if not isinstance(material, str) or material not in MATERIALS:
+        raise _bad(f"{where}.material", f"= {material!r:.40} is not a library material")
+    if p.get("detail") not in DETAILS:
+        raise _bad(f"{where}.detail", f"is not one of {', '.join(DETAILS)}")
+    key = p.get("cache_key", "")
+    if key != "" and not (isinstance(key, str) and HEX_KEY.fullmatch(key)):
+        raise _bad(f"{where}.cache_key", f"= {key!r:.80} is not a sha256 hex digest")
+    brep = p.get("brep")
+    if not isinstance(brep, str):
+        raise _bad(f"{where}.brep", "is not base64 text")
+    try:
+        data = base64.b64decode(brep, validate=True)
+    except (binascii.Error, ValueError):
+        raise _bad(f"{where}.brep", "is not base64 text") from None
+    lines = _list(p.get("lines"), f"{where}.lines", 2)
+    if len(lines) != 2:
+        raise _bad(f"{where}.lines", "is not a pair of line numbers")
+    frames = _dict(p.get("frames", {}), f"{where}.frames", 256)
+    return CompiledPart(
+        name=name, brep=data, placement=_matrix(p.get("placement"), f"{where}.placement"),
+        frames={_name(k, f"{where}.frames key"): _matrix(v, f"{where}.frames[{k}]")
+                for k, v in frames.items()},
+        material=material, detail=p["detail"],
+        description=_text(p.get("description", ""), f"{where}.description", 1000),
+        lines=(_int(lines[0], f"{where}.lines"), _int(lines[1], f"{where}.lines")),
+        reads=tuple(_name(r, f"{where}.reads", IDENT) for r in _list(p.get("reads", []), f"{where}.reads", 4096)),
+        cache_key=key, pieces=_pieces(p.get("pieces", 1), f"{where}.pieces"))
+
+
+def _pieces(v: Any, where: str) -> int:
+    from .api import MAX_PIECES
+    n = _int(v, where, 1)
+    if n > MAX_PIECES:
+        raise _bad(where, f"= {n} is over the {MAX_PIECES} a part may declare")
+    return n
+
+
+def _mate(m: Any, i: int, parts: dict[str, CompiledPart]) -> CompiledMate:
+    where = f"mates[{i}]"
+    m = _dict(m, where, 32)
+    name = _name(m.get("name"), f"{where}.name")
+    where = f"mate {name}"
+    mtype = m.get("type")
+    if not isinstance(mtype, str) or mtype not in TYPES:
+        raise _bad(f"{where}.type", f"= {mtype!r:.40} is not a mate type")
+    if m.get("kind") != TYPES[mtype].kind:
+        raise _bad(f"{where}.kind", f"is not {TYPES[mtype].kind!r}")
+    ends = {}
+    for role in ("child", "parent"):
+        part = _name(m.get(role), f"{where}.{role}")
+        frame = _name(m.get(f"{role}_frame"), f"{where}.{role}_frame")
+        if part in parts and frame not in parts[part].frames:
+            raise _bad(f"{where}.{role}", f"{part}.{frame} is not a frame of part {part}")
+        ends[role], ends[f"{role}_frame"] = part, frame
+    if not isinstance(m.get("primary", True), bool):
+        raise _bad(f"{where}.primary", "is not true/false")
+    fit, options, dof = (_plain(_dict(m.get(k), f"{where}.{k}", 64), f"{where}.{k}")
+                         for k in ("fit", "options", "dof"))
+    return CompiledMate(
+        name=name, type=mtype, kind=TYPES[mtype].kind, **ends,
+        nominal_name=_name(m.get("nominal_name"), f"{where}.nominal_name", IDENT),
+        nominal=_num(m.get("nominal"), f"{where}.nominal", lo=0.0), fit=fit, options=options,
+        dof=dof, world_frame=_matrix(m.get("world_frame"), f"{where}.world_frame"),
+        primary=m.get("primary", True),
+        residual_mm=_num(m.get("residual_mm", 0.0), f"{where}.residual_mm", lo=0.0),
+        residual_rad=_num(m.get("residual_rad", 0.0), f"{where}.residual_rad", lo=0.0),
+        line=None if m.get("line") is None else _int(m["line"], f"{where}.line"))
+
+
+def model_from_json(d: Any, *, name: str | None = None) -> CompiledModel:
+    """A :class:`CompiledModel` from the child's JSON, every field validated.
+
+    Args:
+        d: the decoded ``result.json``.
+        name: the model name the parent asked for (used instead of the child's).
+
+    Raises:
+        ResultError: the first field that is out of schema, named.
+    """
+    d = _dict(d, "the result", 16)
+    parts_in = _list(d.get("parts"), "parts", SANDBOX.max_parts)
+    parts: dict[str, CompiledPart] = {}
+    for i, p in enumerate(parts_in):
+        cp = _part(p, i)
+        if cp.name in parts:
+            raise _bad(f"part {cp.name}", "appears twice")
+        parts[cp.name] = cp
+    mates = [_mate(m, i, parts) for i, m in enumerate(_list(d.get("mates"), "mates", 4 * SANDBOX.max_parts))]
+    if len({m.name for m in mates}) != len(mates):
+        raise _bad("mates", "repeat a name")
+    params: dict[str, Any] = {}
+    for k, v in _dict(d.get("params", {}), "params", 4096).items():
+        _name(k, "params key", IDENT)
+        params[k] = v if isinstance(v, bool) else (_text(v, f"param {k}", MAX_NAME) if isinstance(v, str)
+                                                   else _num(v, f"param {k}"))
+    timings = {_text(k, "timings key", 2 * MAX_NAME): _num(v, f"timings[{k!r:.40}]")
+               for k, v in _dict(d.get("timings", {}), "timings", 6 * SANDBOX.max_parts + 64).items()}
+    findings = [finding_from_json(f, f"findings[{i}]") for i, f in enumerate(_list(d.get("findings", []), "findings", 1000))]
+    model_name = name if name is not None else _name(d.get("name"), "name", IDENT)
+    return CompiledModel(name=model_name, params=params, parts=list(parts.values()), mates=mates,
+                         findings=findings, timings=timings)
