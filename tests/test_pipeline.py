@@ -140,6 +140,13 @@ def test_a_blow_up_after_the_compile_is_one_line_and_a_report(tmp_path, worker, 
         monkeypatch.setattr(pipeline, "run_gates", greedy)
     else:
         limits = ParentLimits(wall_s=0.2)
+
+        def slow(model, source):  # warm caches can make a real lamp build finish inside 0.2 s
+            import time
+            time.sleep(5)
+            return {}
+
+        monkeypatch.setattr(pipeline, "run_gates", slow)
     monkeypatch.setattr("procedura_brep.isolate.PARENT", limits)
     out = tmp_path / "run"
     res = CliRunner().invoke(app, ["build", str(LAMP), "-o", str(out)])

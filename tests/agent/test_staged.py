@@ -105,3 +105,22 @@ def test_a_killed_run_resumes_to_the_same_program(tmp_path, lamp_run):
     steps = [json.loads(x)["step"] for x in (out / "transcript.jsonl").read_text().splitlines()]
     assert steps == sorted(steps) and len(steps) == len(set(steps)) == 16  # no call made twice
     assert min(s for s in steps if s >= killed_at) == killed_at
+
+
+def test_second_object_floater_caught_repairs_and_an_ungated_give_up(tmp_path):
+    out = tmp_path / "box"
+    tape = TAPES / "box_staged.jsonl"
+    assert "HAND-WRITTEN" in json.loads(tape.read_text().split("\n", 1)[0])["note"]
+    result = generate_staged(None, out, model=f"replay:{tape}", options=StagedOptions(simulate=False))
+    assert result.status == "ok", result.message
+    report = json.loads((out / "report.json").read_text())
+    assert "restored dropped part knob" in report["plan_repairs"]
+    assert [c["name"] for c in report["committed"]] == ["case", "lid", "knob"]
+    floated = (out / "history" / "003-knob.attempt-1.txt").read_text()
+    assert "knob" in floated and ("detached" in floated or "float" in floated), floated
+    refine = report["refine"]
+    assert refine["verdict"] == "give_up" and refine["edits"] == 0
+    refused = "\n".join(refine["refused"])
+    assert "edit refused" in refused and "syntax error" in refused
+    assert "needs a fresh diagnosis" in refused
+    assert "finish(ok) refused" in refused and "HIGH issue(s) open: [HIGH] knob" in refused
