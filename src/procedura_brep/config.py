@@ -54,6 +54,11 @@ class Tolerances:
         sweep_rest_interference_mm: battery B2: a pair thicker than this at rest is interfering
             at rest (checked by B3 and the mate gate) and is not swept.
         sweep_box_slack_mm: battery B2: slack added to the box prefilters of the sweep.
+        sweep_step_mm: battery B2: the most any point of a moved part that can come near a
+            fixed part travels between two sweep samples (so a fin this thick cannot be
+            stepped over).
+        sweep_cell_mm: battery B2: side of the surface cells whose sphere cover prefilters the
+            exact checks (smaller: fewer booleans near contacts, more cells to query).
         nonconvex_ratio: exports: a mesh component whose convex hull volume exceeds its own
             volume by this factor is decomposed into convex collision pieces (CoACD).
     """
@@ -89,6 +94,8 @@ class Tolerances:
     contact_plane_cos: float = 0.99995
     sweep_rest_interference_mm: float = 1e-3
     sweep_box_slack_mm: float = 0.01
+    sweep_step_mm: float = 1.0
+    sweep_cell_mm: float = 4.0
     nonconvex_ratio: float = 1.3
 
 

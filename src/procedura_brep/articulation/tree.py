@@ -19,6 +19,7 @@ from typing import Literal
 import numpy as np
 
 from ..errors import ProceduraError
+from ..mates.vocabulary import TYPES
 from ..program.model import CompiledMate, CompiledModel
 
 log = logging.getLogger(__name__)
@@ -127,14 +128,26 @@ class Articulation:
         return None if lk.parent_joint is None else self.joint(lk.parent_joint).parent
 
 
+def mate_option(mate: CompiledMate, key: str) -> float:
+    """A numeric option of ``mate``: its value, or the type's default when it is absent or None.
+
+    An explicit value is kept as given (``effort=0`` is refused at compile time by the option's
+    range, never silently replaced: see :mod:`procedura_brep.mates.vocabulary`).
+    """
+    value = mate.options.get(key)
+    if value is None:
+        value = TYPES[mate.type].options[key].default
+    return float(value)
+
+
 def joint_limits(mate: CompiledMate) -> tuple[JointType, float | None, float | None]:
     """(type, lower, upper) in SI units relative to the compiled (home) pose."""
     opts = mate.options
     if mate.type == "spherical":
-        cone = float(opts.get("cone") or 30.0)
+        cone = mate_option(mate, "cone")
         return "spherical", 0.0, float(np.radians(cone))
     lim = opts.get("limits")
-    home = float(opts.get("home") or 0.0)
+    home = mate_option(mate, "home") if mate.type in ("revolute", "prismatic") else 0.0
     if mate.type == "revolute":
         if lim is None:
             return "continuous", None, None
@@ -203,8 +216,8 @@ def articulate(model: CompiledModel) -> Articulation:
         jtype, lo, hi = joint_limits(m)
         joints_by_child[c] = Joint(
             name=m.name, type=jtype, parent=p, child=c, frame=np.asarray(m.world_frame, float),
-            lower=lo, upper=hi, effort=float(m.options.get("effort") or 10.0),
-            velocity=float(m.options.get("velocity") or 3.0), mate=m)
+            lower=lo, upper=hi, effort=mate_option(m, "effort"),
+            velocity=mate_option(m, "velocity"), mate=m)
     # walk from the root
     root_frame = np.asarray(model.part(model.parts[0].name).placement, float)
     links = [Link(root_name, members[root_name], root_frame)]

@@ -26,13 +26,30 @@ MateKind = Literal["static", "kinematic"]
 
 @dataclass(frozen=True)
 class Option:
-    """One type-specific option: default and allowed closed range (None = unbounded)."""
+    """One type-specific option: default and allowed range (None = unbounded).
+
+    The range is closed, ``[low, high]``, unless ``open_low``: then ``low`` itself is refused,
+    ``(low, high]`` (an effort or a speed limit of 0 would be a joint that cannot move: a
+    kinematic mate always moves; use a static mate for a part that must not).
+    """
 
     default: Any
     low: float | None = None
     high: float | None = None
     integer: bool = False
     doc: str = ""
+    open_low: bool = False
+
+    def admits(self, value: float) -> bool:
+        """Whether ``value`` lies in the option's range."""
+        if self.low is not None and (value < self.low or (self.open_low and value == self.low)):
+            return False
+        return self.high is None or value <= self.high
+
+    def range_text(self) -> str:
+        lo = "-inf" if self.low is None else f"{self.low:g}"
+        hi = "inf" if self.high is None else f"{self.high:g}"
+        return f"{'(' if self.open_low else '['}{lo}, {hi}]"
 
 
 @dataclass(frozen=True)
@@ -116,22 +133,22 @@ TYPES: dict[str, MateType] = {t.name: t for t in [
     MateType("revolute", "kinematic", Dof(rotation=("z",)), ("clearance", "location"), "clearance",
              {"limits": Option(None, -360.0, 360.0, doc="(lo, hi) deg, or None for continuous"),
               "home": Option(0.0, -360.0, 360.0, doc="angle at which the child is placed, deg"),
-              "effort": Option(10.0, 0.0, 1e6, doc="max torque, N m"),
-              "velocity": Option(3.0, 0.0, 1e4, doc="max speed, rad/s"),
+              "effort": Option(10.0, 0.0, 1e6, open_low=True, doc="max torque, N m (> 0)"),
+              "velocity": Option(3.0, 0.0, 1e4, open_low=True, doc="max speed, rad/s (> 0)"),
               "depth": _DEPTH, "features": _FEAT},
              doc="1 rotational DOF about frame Z: a pin of diameter d in a bore"),
     MateType("prismatic", "kinematic", Dof(translation=("z",)), ("clearance", "location"), "clearance",
              {"limits": Option(None, -10000.0, 10000.0, doc="(lo, hi) mm along frame Z, required"),
               "home": Option(0.0, -10000.0, 10000.0, doc="position at which the child is placed, mm"),
-              "effort": Option(100.0, 0.0, 1e6, doc="max force, N"),
-              "velocity": Option(0.1, 0.0, 1e3, doc="max speed, m/s"),
+              "effort": Option(100.0, 0.0, 1e6, open_low=True, doc="max force, N (> 0)"),
+              "velocity": Option(0.1, 0.0, 1e3, open_low=True, doc="max speed, m/s (> 0)"),
               "depth": _DEPTH, "features": _FEAT},
              doc="1 translational DOF along frame Z: a square guide bar of width d in a slot"),
     MateType("spherical", "kinematic", Dof(rotation=("x", "y", "z")), ("clearance", "location"),
              "clearance",
              {"cone": Option(30.0, 0.1, 180.0, doc="cone half-angle limit, deg"),
-              "effort": Option(10.0, 0.0, 1e6, doc="max torque, N m"),
-              "velocity": Option(3.0, 0.0, 1e4, doc="max speed, rad/s"),
+              "effort": Option(10.0, 0.0, 1e6, open_low=True, doc="max torque, N m (> 0)"),
+              "velocity": Option(3.0, 0.0, 1e4, open_low=True, doc="max speed, rad/s (> 0)"),
               "features": _FEAT},
              doc="3 rotational DOF about the frame origin: a ball of diameter d in a socket"),
 ]}
@@ -169,8 +186,8 @@ def check_options(mate: str, mtype: MateType, fit: str, options: dict[str, Any])
                 raise MateError(mate, f"option {key} must be a finite number, got {value!r}")
             if opt.integer and int(value) != value:
                 raise MateError(mate, f"option {key} must be a whole number, got {value!r}")
-            if (opt.low is not None and value < opt.low) or (opt.high is not None and value > opt.high):
-                raise MateError(mate, f"option {key} = {value:g} is outside [{opt.low:g}, {opt.high:g}]")
+            if not opt.admits(value):
+                raise MateError(mate, f"option {key} = {value:g} is outside {opt.range_text()}")
             value = int(value) if opt.integer else float(value)
         out[key] = value
     if "home" in out and out.get("limits") is not None:
