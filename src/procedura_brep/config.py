@@ -59,6 +59,14 @@ class Tolerances:
             stepped over).
         sweep_cell_mm: battery B2: side of the surface cells whose sphere cover prefilters the
             exact checks (smaller: fewer booleans near contacts, more cells to query).
+        wheel_axis_deg: articulation: a wheel's symmetry axis is parallel to its joint axis
+            within this angle.
+        wheel_centre_mm: articulation: a wheel's symmetry axis passes this close to its joint
+            axis line.
+        wheel_ground_mm: articulation: a wheel's lowest point is within this of the model's
+            lowest point (the floor).
+        drive_max_yaw_deg: battery B4: the most the base may turn while one uniform command
+            drives every wheel (a straight drive).
         nonconvex_ratio: exports: a mesh component whose convex hull volume exceeds its own
             volume by this factor is decomposed into convex collision pieces (CoACD).
     """
@@ -97,6 +105,10 @@ class Tolerances:
     sweep_step_mm: float = 1.0
     sweep_cell_mm: float = 4.0
     nonconvex_ratio: float = 1.3
+    wheel_axis_deg: float = 1.0
+    wheel_centre_mm: float = 0.5
+    wheel_ground_mm: float = 1.0
+    drive_max_yaw_deg: float = 5.0
 
 
 @dataclass(frozen=True)

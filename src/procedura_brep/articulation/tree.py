@@ -63,6 +63,8 @@ class Joint:
         effort: N m or N.
         velocity: rad/s or m/s.
         mate: the source mate.
+        flipped: a wheel whose frame was turned half a turn about X so that a positive command
+            rolls it forward (its axis is then the mate frame's -Z; see :mod:`.wheels`).
     """
 
     name: str
@@ -75,6 +77,7 @@ class Joint:
     effort: float
     velocity: float
     mate: CompiledMate = field(repr=False)
+    flipped: bool = False
 
     @property
     def anchor_m(self) -> np.ndarray:
@@ -90,12 +93,14 @@ class Joint:
 
 @dataclass
 class Articulation:
-    """Links in tree order (root first), joints in the same order as their child links."""
+    """Links in tree order (root first), joints in the same order as their child links;
+    ``wheels``: the wheel joints (by evidence, :mod:`.wheels`), which make the base free."""
 
     name: str
     links: list[Link]
     joints: list[Joint]
     part_link: dict[str, str]
+    wheels: list[str] = field(default_factory=list)
 
     @property
     def root(self) -> Link:
@@ -241,5 +246,23 @@ def articulate(model: CompiledModel) -> Articulation:
         raise ArticulationError(
             f"not joined to the root {root_name!r}: {names}; add a mate from each to a part "
             f"declared before it")
-    log.debug("articulated %s: %d links, %d joints", model.name, len(links), len(joints))
-    return Articulation(model.name, links, joints, part_link)
+    art = Articulation(model.name, links, joints, part_link)
+    _drive_wheels(model, art)
+    log.debug("articulated %s: %d links, %d joints, wheels %s", model.name, len(links),
+              len(joints), art.wheels)
+    return art
+
+
+def _drive_wheels(model: CompiledModel, art: Articulation) -> None:
+    """Find the wheels and flip those that would roll backwards (see :mod:`.wheels`)."""
+    from .wheels import find_wheels, flip, forward, rolling_direction
+    art.wheels = find_wheels(model, {lk.name: lk.parts for lk in art.links}, art.joints, art.subtree)
+    if not art.wheels:
+        return
+    ahead = forward(art.root.frame, art.joint(art.wheels[0]).axis)
+    for name in art.wheels:
+        j = art.joint(name)
+        if float(rolling_direction(j.axis) @ ahead) < 0:
+            j.frame = flip(j.frame)
+            j.flipped = True
+            art.link(j.child).frame = j.frame.copy()

@@ -48,10 +48,6 @@ SERVO_OMEGA = 2 * np.pi * SERVO_HZ
 MIN_VELOCITY = 1e-9
 #: Damping ratio of every servo.
 SERVO_ZETA = 1.0
-#: A wheel's axis has at most this |z| component (it rolls on a horizontal floor).
-WHEEL_MAX_AXIS_Z = 0.5
-#: A wheel's radius is at least this many times its width along the axis.
-WHEEL_DISC_RATIO = 0.5
 #: Mesh directory of ``model.xml`` relative to the bundle root (shared with the URDF).
 MESHDIR = "urdf/meshes"
 
@@ -90,20 +86,10 @@ def lowest_z(model: CompiledModel, parts: list[str]) -> float:
 
 
 def wheel_joints(model: CompiledModel, art: Articulation) -> list[str]:
-    """Continuous joints with a horizontal axis whose child subtree is disc-like (its radius about
-    the axis is at least :data:`WHEEL_DISC_RATIO` times its length along it). Whether the wheels
-    reach the ground is for battery B4 to find out, not for this test."""
-    out = []
-    for j in art.joints:
-        if j.type != "continuous" or abs(float(j.axis[2])) > WHEEL_MAX_AXIS_Z:
-            continue
-        parts = [p for lk in art.subtree(j.child) for p in art.link(lk).parts]
-        v = np.vstack([part_mesh(model.part(n)).vertices for n in parts]) - j.frame[:3, 3]
-        along = v @ j.axis
-        radial = np.linalg.norm(v - np.outer(along, j.axis), axis=1)
-        if radial.max() >= WHEEL_DISC_RATIO * (along.max() - along.min()):
-            out.append(j.name)
-    return out
+    """The wheel joints, found by evidence in the articulation
+    (:mod:`procedura_brep.articulation.wheels`): continuous, round about the axis, reaching the
+    floor. Their frames already carry one drive sign."""
+    return list(art.wheels)
 
 
 def _geoms(spec, body, model: CompiledModel, name: str, frame: np.ndarray,
