@@ -103,7 +103,7 @@ class Tolerances:
     sweep_rest_interference_mm: float = 1e-3
     sweep_box_slack_mm: float = 0.01
     sweep_step_mm: float = 1.0
-    sweep_cell_mm: float = 4.0
+    sweep_cell_mm: float = 1.5
     nonconvex_ratio: float = 1.3
     wheel_axis_deg: float = 1.0
     wheel_centre_mm: float = 0.5

@@ -6,10 +6,12 @@ pose) no further apart than ``TOL.sweep_cell_mm / 2`` and binned into cubic cell
 covers the cell (half its diagonal), the point spacing and the tessellation's deviation from the
 exact surface (``TOL.mesh_linear_mm``), so every point of the exact surface lies inside a sphere.
 
-For a moved part, the faces that a rotation about the joint axis maps onto themselves (planes
-normal to the axis, cylinders, cones, spheres and tori about it, bounded only by circles about
-it and seams: a pin, its shoulder, a round hub) are left out: they never sweep new space, so
-they can neither start nor deepen an interference (:func:`invariant_under_rotation`).
+For a moved part, the faces whose rotation about the joint axis sweeps no volume are left out:
+planes normal to the axis (they slide in their own plane, whatever their outline), and
+cylinders, cones, spheres and tori about the axis bounded only by circles about it and seams (a
+pin, a round hub: they map onto themselves). A point changes from outside to inside the moved
+solid only when a boundary point passes over it, so only the other faces can start or deepen an
+interference (:func:`invariant_under_rotation`).
 
 Two posed solids whose covers do not meet have disjoint surfaces: they are apart, or one lies
 wholly inside the other (which a sweep that moves no point by more than ``TOL.sweep_step_mm`` a
@@ -51,13 +53,21 @@ def _triangles(face, o) -> np.ndarray:
     return pts[idx]
 
 
-def _points(tris: np.ndarray, h: float) -> np.ndarray:
-    """Points on triangles (n, 3, 3), no surface point further than ``h`` from one."""
+def _cells(tris: np.ndarray, h: float, cell: float) -> np.ndarray:
+    """Integer keys (n, 3) of the cells of side ``cell`` holding points laid on triangles
+    (n, 3, 3) so that no surface point is further than ``h`` from one."""
     if not len(tris):
-        return np.zeros((0, 3))
+        return np.zeros((0, 3), dtype=np.int64)
     edge = np.max(np.linalg.norm(tris - np.roll(tris, 1, axis=1), axis=2), axis=1)
     subdiv = np.clip(np.ceil(edge / h).astype(int), 1, MAX_SUBDIV)
-    out = [tris.reshape(-1, 3)]
+    lo = np.floor(tris.reshape(-1, 3).min(axis=0) / cell).astype(np.int64) - 1
+    span = np.floor(tris.reshape(-1, 3).max(axis=0) / cell).astype(np.int64) - lo + 2
+
+    def codes(pts: np.ndarray) -> np.ndarray:
+        k = np.floor(pts / cell).astype(np.int64) - lo
+        return np.unique((k[:, 0] * span[1] + k[:, 1]) * span[2] + k[:, 2])
+
+    out = [codes(tris.reshape(-1, 3))]
     for n in np.unique(subdiv):
         if n <= 1:
             continue
@@ -65,8 +75,14 @@ def _points(tris: np.ndarray, h: float) -> np.ndarray:
         keep = (i + j) <= n
         bary = np.column_stack([i[keep], j[keep], n - i[keep] - j[keep]]) / n  # (k, 3)
         group = tris[subdiv == n]  # (g, 3, 3)
-        out.append(np.einsum("kc,gcd->gkd", bary, group).reshape(-1, 3))
-    return np.vstack(out)
+        step = max(1, 2_000_000 // max(1, len(bary)))  # bound the memory of one batch
+        for s in range(0, len(group), step):
+            out.append(codes(np.einsum("kc,gcd->gkd", bary, group[s:s + step]).reshape(-1, 3)))
+    c = np.unique(np.concatenate(out))
+    kz = c % span[2]
+    ky = (c // span[2]) % span[1]
+    kx = c // (span[2] * span[1])
+    return np.column_stack([kx, ky, kz]) + lo
 
 
 def _circle_about(curve, point: np.ndarray, axis: np.ndarray) -> bool:
@@ -84,13 +100,16 @@ def _coaxial(ax1, point: np.ndarray, axis: np.ndarray) -> bool:
 
 
 def invariant_under_rotation(face, point: np.ndarray, axis: np.ndarray, o) -> bool:
-    """Whether a rotation about the line (``point``, unit ``axis``) maps ``face`` onto itself."""
+    """Whether a rotation about the line (``point``, unit ``axis``) sweeps no volume with
+    ``face``: a plane normal to the axis (whatever its outline: it slides in its own plane), or
+    a surface of revolution about the axis bounded only by circles about it and seams (it maps
+    onto itself)."""
     from OCP.BRepAdaptor import BRepAdaptor_Curve, BRepAdaptor_Surface
     from OCP.GeomAbs import GeomAbs_CurveType, GeomAbs_SurfaceType as S
     surf = BRepAdaptor_Surface(face)
     kind = surf.GetType()
     if kind == S.GeomAbs_Plane:
-        ok = abs(abs(float(np.array(_dir(surf.Plane().Axis().Direction())) @ axis)) - 1) <= PARALLEL_EPS
+        return abs(abs(float(np.array(_dir(surf.Plane().Axis().Direction())) @ axis)) - 1) <= PARALLEL_EPS
     elif kind == S.GeomAbs_Cylinder:
         ok = _coaxial(surf.Cylinder().Axis(), point, axis)
     elif kind == S.GeomAbs_Cone:
@@ -139,8 +158,7 @@ def cover(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
         if axis is not None and invariant_under_rotation(face, axis[0], axis[1], o):
             continue
         tris.append(_triangles(face, o))
-    pts = _points(np.vstack(tris), h) if tris else np.zeros((0, 3))
-    keys = np.unique(np.floor(pts / cell).astype(np.int64), axis=0) if len(pts) else np.zeros((0, 3))
+    keys = _cells(np.vstack(tris), h, cell) if tris else np.zeros((0, 3), dtype=np.int64)
     centres = (keys + 0.5) * cell
     radius = cell * np.sqrt(3.0) / 2.0 + h + TOL.mesh_linear_mm
     return Cover(np.asarray(centres, float), float(radius))
