@@ -40,7 +40,7 @@ def test_child_frame_coincides_with_parent_frame(built, mtype):
     dist, ang = pl.residual(child.world_frame("foot"), mate.world_frame)
     assert dist <= 1e-6 and ang <= 1e-9
     parent = m.part("base")
-    home = mate.options.get("home") if mate.kind == "kinematic" else None
+    home = pl.home_value(mtype, mate.options) if mate.kind == "kinematic" else None
     expect = parent.world_frame("top") @ pl.delta(mtype, home)
     dist, ang = pl.residual(mate.world_frame, expect)
     assert dist <= 1e-6 and ang <= 1e-9

@@ -134,6 +134,14 @@ def prismatic(d: float, fit: Fit, o: dict[str, Any]) -> Halves:
     return bar, slot
 
 
+def cylindrical(d: float, fit: Fit, o: dict[str, Any]) -> Halves:
+    """A round shaft of diameter d (``fit.shaft``) in a bore deep enough for the travel."""
+    depth = o.get("depth") or 2.0 * d
+    lo = min(0.0, o["limits"][0])
+    return (_pin(fit.shaft, depth),
+            Cylinder(fit.hole / 2, depth - lo + _relief(d), align=TOP))
+
+
 def spherical(d: float, fit: Fit, o: dict[str, Any]) -> Halves:
     return Sphere(fit.shaft / 2), Sphere(fit.hole / 2)
 
@@ -142,7 +150,7 @@ MACROS: dict[str, Callable[[float, Fit, dict[str, Any]], Halves]] = {
     "bolt_pattern": bolt_pattern, "peg_socket": peg, "seat_face": seat_face, "flange": flange,
     "tab_slot": tab_slot, "press_fit": press_fit, "lip_rabbet": lip_rabbet,
     "snap_tab": snap_tab, "key": key, "revolute": revolute, "prismatic": prismatic,
-    "spherical": spherical,
+    "spherical": spherical, "cylindrical": cylindrical,
 }
 
 

@@ -1,4 +1,4 @@
-"""The closed mate vocabulary: nine static types and three kinematic ones.
+"""The closed mate vocabulary: nine static types and four kinematic ones.
 
 Every type fixes its degree-of-freedom signature, the fit classes it accepts, and its options
 (with defaults and allowed ranges). This module is pure data plus validation; the geometry of
@@ -158,6 +158,20 @@ TYPES: dict[str, MateType] = {t.name: t for t in [
               "velocity": Option(3.0, 0.0, 1e4, open_low=True, doc="max speed, rad/s (> 0)"),
               "features": _FEAT, "male": _MALE},
              doc="3 rotational DOF about the frame origin: a ball of diameter d in a socket"),
+    MateType("cylindrical", "kinematic", Dof(translation=("z",), rotation=("z",)),
+             ("clearance", "location"), "clearance",
+             {"limits": Option(None, -10000.0, 10000.0, doc="(lo, hi) mm along frame Z, required"),
+              "angle_limits": Option(None, -360.0, 360.0,
+                                     doc="(lo, hi) deg about frame Z, or None for a free turn"),
+              "home": Option(0.0, -10000.0, 10000.0, doc="position at which the child is placed, mm"),
+              "home_angle": Option(0.0, -360.0, 360.0, doc="angle at which the child is placed, deg"),
+              "effort": Option(100.0, 0.0, 1e6, open_low=True, doc="max force along the axis, N (> 0)"),
+              "torque": Option(10.0, 0.0, 1e6, open_low=True, doc="max torque about the axis, N m (> 0)"),
+              "velocity": Option(0.1, 0.0, 1e3, open_low=True, doc="max sliding speed, m/s (> 0)"),
+              "angular_velocity": Option(3.0, 0.0, 1e4, open_low=True, doc="max turning speed, rad/s (> 0)"),
+              "depth": _DEPTH, "features": _FEAT, "male": _MALE},
+             doc="slide along and turn about frame Z (2 DOF): a round shaft of diameter d in a "
+                 "bore deep enough for the travel (a collar on a column: male=\"parent\")"),
 ]}
 
 STATIC_TYPES = tuple(n for n, t in TYPES.items() if t.kind == "static")
@@ -184,8 +198,8 @@ def check_options(mate: str, mtype: MateType, fit: str, options: dict[str, Any])
     out: dict[str, Any] = {}
     for key, opt in mtype.options.items():
         value = options.get(key, opt.default)
-        if key == "limits":
-            value = _check_limits(mate, mtype, value)
+        if key in ("limits", "angle_limits"):
+            value = _check_limits(mate, mtype, value, key)
         elif key == "features":
             value = bool(value)
         elif opt.choices:
@@ -205,21 +219,27 @@ def check_options(mate: str, mtype: MateType, fit: str, options: dict[str, Any])
         lo, hi = out["limits"]
         if not lo <= out["home"] <= hi:
             raise MateError(mate, f"home = {out['home']:g} is outside its limits [{lo:g}, {hi:g}]")
+    if "home_angle" in out and out.get("angle_limits") is not None:
+        lo, hi = out["angle_limits"]
+        if not lo <= out["home_angle"] <= hi:
+            raise MateError(mate, f"home_angle = {out['home_angle']:g} is outside its angle_limits "
+                                  f"[{lo:g}, {hi:g}]")
     return out
 
 
-def _check_limits(mate: str, mtype: MateType, value: Any) -> tuple[float, float] | None:
+def _check_limits(mate: str, mtype: MateType, value: Any, key: str = "limits"
+                  ) -> tuple[float, float] | None:
     if value is None:
-        if mtype.name == "prismatic":
-            raise MateError(mate, "a prismatic mate needs limits=(lo, hi) in mm")
+        if key == "limits" and mtype.name in ("prismatic", "cylindrical"):
+            raise MateError(mate, f"a {mtype.name} mate needs limits=(lo, hi) in mm")
         return None
     try:
         lo, hi = (float(v) for v in value)
     except (TypeError, ValueError):
-        raise MateError(mate, f"limits must be (lo, hi), got {value!r}") from None
-    opt = mtype.options["limits"]
+        raise MateError(mate, f"{key} must be (lo, hi), got {value!r}") from None
+    opt = mtype.options[key]
     if not (lo < hi):
-        raise MateError(mate, f"limits ({lo:g}, {hi:g}) must have lo < hi")
+        raise MateError(mate, f"{key} ({lo:g}, {hi:g}) must have lo < hi")
     if lo < opt.low or hi > opt.high:
-        raise MateError(mate, f"limits ({lo:g}, {hi:g}) are outside [{opt.low:g}, {opt.high:g}]")
+        raise MateError(mate, f"{key} ({lo:g}, {hi:g}) are outside [{opt.low:g}, {opt.high:g}]")
     return (lo, hi)

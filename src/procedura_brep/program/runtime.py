@@ -284,7 +284,7 @@ def _place(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]]) -> No
         c.locate(Location())
     for m in mates:
         decl, mtype, opts = m["decl"], m["type"], m["options"]
-        home = opts.get("home") if mtype.kind == "kinematic" else None
+        home = pl.home_value(mtype.name, opts) if mtype.kind == "kinematic" else None
         D = pl.delta(mtype.name, home)
         if decl.parent not in b.world:
             b.fail("plan-order", f"mate {decl.name}: parent {decl.parent!r} is not placed yet; declare "
@@ -326,9 +326,12 @@ def _place_by_joint(carriers: dict[str, Any], reg: registry.Registry, m: dict[st
     fc = reg.frames[decl.child][decl.child_frame]
     try:
         if mtype.kind == "kinematic":
+            home = pl.home_value(mtype.name, opts)
             joint = kinematic(mtype.name, parent, child, fp, fc, decl.name,
-                              limits=opts.get("limits"), cone=opts.get("cone"))
-            joint.move((0.0, 0.0, 0.0) if mtype.name == "spherical" else opts.get("home", 0.0))
+                              limits=opts.get("limits"), cone=opts.get("cone"),
+                              angle_limits=opts.get("angle_limits"),
+                              home=home if mtype.name == "cylindrical" else (0.0, 0.0))
+            joint.move(home)
         else:
             rigid_place(parent, child, fp, fc, decl.name)
     except ValueError as exc:
