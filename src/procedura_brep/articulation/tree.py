@@ -24,7 +24,25 @@ from ..program.model import CompiledMate, CompiledModel
 
 log = logging.getLogger(__name__)
 
-JointType = Literal["revolute", "continuous", "prismatic", "spherical"]
+JointType = Literal["revolute", "continuous", "prismatic", "spherical", "cylindrical"]
+DofType = Literal["revolute", "continuous", "prismatic"]
+
+#: Suffixes of a cylindrical joint's two exported joints (slide, then turn, on one axis).
+SLIDE, TURN = "__slide", "__turn"
+
+
+@dataclass(frozen=True)
+class JointDof:
+    """One exported 1-DOF joint: a revolute, continuous or prismatic joint is its own; a
+    cylindrical joint has two on its axis, ``<name>__slide`` (prismatic) then ``<name>__turn``
+    (revolute, or continuous without angle limits)."""
+
+    name: str
+    type: DofType
+    lower: float | None
+    upper: float | None
+    effort: float
+    velocity: float
 
 
 class ArticulationError(ProceduraError, ValueError):
@@ -65,6 +83,10 @@ class Joint:
         mate: the source mate.
         flipped: a wheel whose frame was turned half a turn about X so that a positive command
             rolls it forward (its axis is then the mate frame's -Z; see :mod:`.wheels`).
+        turn_lower, turn_upper: a cylindrical joint's angle limits relative to the compiled
+            pose, rad (None: a free turn); ``lower``/``upper`` are its slide limits, m.
+        torque, angular_velocity: a cylindrical joint's turning limits (N m, rad/s); ``effort``
+            and ``velocity`` are its sliding ones (N, m/s).
     """
 
     name: str
@@ -78,6 +100,23 @@ class Joint:
     velocity: float
     mate: CompiledMate = field(repr=False)
     flipped: bool = False
+    turn_lower: float | None = None
+    turn_upper: float | None = None
+    torque: float = 0.0
+    angular_velocity: float = 0.0
+
+    def dofs(self) -> list[JointDof]:
+        """The 1-DOF joints this joint exports as (none for a spherical joint)."""
+        if self.type == "spherical":
+            return []
+        if self.type == "cylindrical":
+            turn: DofType = "continuous" if self.turn_lower is None else "revolute"
+            return [JointDof(self.name + SLIDE, "prismatic", self.lower, self.upper, self.effort,
+                             self.velocity),
+                    JointDof(self.name + TURN, turn, self.turn_lower, self.turn_upper,
+                             self.torque, self.angular_velocity)]
+        return [JointDof(self.name, self.type, self.lower, self.upper, self.effort,  # type: ignore[arg-type]
+                         self.velocity)]
 
     @property
     def anchor_m(self) -> np.ndarray:
@@ -152,16 +191,16 @@ def joint_limits(mate: CompiledMate) -> tuple[JointType, float | None, float | N
         cone = mate_option(mate, "cone")
         return "spherical", 0.0, float(np.radians(cone))
     lim = opts.get("limits")
-    home = mate_option(mate, "home") if mate.type in ("revolute", "prismatic") else 0.0
+    home = mate_option(mate, "home") if mate.type in ("revolute", "prismatic", "cylindrical") else 0.0
     if mate.type == "revolute":
         if lim is None:
             return "continuous", None, None
         return "revolute", float(np.radians(lim[0] - home)), float(np.radians(lim[1] - home))
-    if mate.type == "prismatic":
+    if mate.type in ("prismatic", "cylindrical"):
         if lim is None:
             raise ArticulationError(
-                f"prismatic mate {mate.name!r} has no limits; give limits=(lo, hi) in mm")
-        return "prismatic", (lim[0] - home) / 1000.0, (lim[1] - home) / 1000.0
+                f"{mate.type} mate {mate.name!r} has no limits; give limits=(lo, hi) in mm")
+        return mate.type, (lim[0] - home) / 1000.0, (lim[1] - home) / 1000.0  # type: ignore[return-value]
     raise ArticulationError(f"mate {mate.name!r} of type {mate.type!r} is not kinematic")
 
 
@@ -223,6 +262,14 @@ def articulate(model: CompiledModel) -> Articulation:
             name=m.name, type=jtype, parent=p, child=c, frame=np.asarray(m.world_frame, float),
             lower=lo, upper=hi, effort=mate_option(m, "effort"),
             velocity=mate_option(m, "velocity"), mate=m)
+        if jtype == "cylindrical":
+            j = joints_by_child[c]
+            alim = m.options.get("angle_limits")
+            h = mate_option(m, "home_angle")
+            if alim is not None:
+                j.turn_lower, j.turn_upper = (float(np.radians(alim[0] - h)),
+                                              float(np.radians(alim[1] - h)))
+            j.torque, j.angular_velocity = mate_option(m, "torque"), mate_option(m, "angular_velocity")
     # walk from the root
     root_frame = np.asarray(model.part(model.parts[0].name).placement, float)
     links = [Link(root_name, members[root_name], root_frame)]

@@ -11,7 +11,8 @@ excluded from collisions (MuJoCo collides convex hulls, which fill holes and bor
 rest-contact check is battery B3).
 
 Actuators: a position servo per limited revolute/prismatic joint and a velocity servo per
-continuous joint. Position gains are scaled from the joint-space inertia so every servo has the
+continuous joint. A cylindrical joint is two joints on one body, both at its origin about/along
+``0 0 1``: ``<mate>__slide`` (slide) then ``<mate>__turn`` (hinge), each with its own servo. Position gains are scaled from the joint-space inertia so every servo has the
 same natural frequency (:data:`SERVO_HZ`); a velocity servo's gain is at least effort / velocity
 (full effort at stall), since a wheel carries the vehicle's load, not just its own inertia.
 Every actuator's force is limited by the mate's effort. A spherical joint (MuJoCo ``ball``,
@@ -121,6 +122,27 @@ def _inertial(body, mp: MassProps) -> None:
     body.inertia = [float(x) for x in w]
 
 
+def _dof_joint(spec, body, dof, kp: float) -> None:
+    """A hinge or slide at the body origin about/along its z, with its servo."""
+    import mujoco
+    jtype = mujoco.mjtJoint.mjJNT_SLIDE if dof.type == "prismatic" else mujoco.mjtJoint.mjJNT_HINGE
+    jt = body.add_joint(name=dof.name, type=jtype, axis=[0, 0, 1], pos=[0, 0, 0])
+    act = spec.add_actuator(name=dof.name, target=dof.name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    if dof.type == "continuous":
+        jt.limited = mujoco.mjtLimited.mjLIMITED_FALSE
+        act.set_to_velocity(kv=float(kp))
+        act.ctrlrange = [-dof.velocity, dof.velocity]
+    else:
+        jt.limited = mujoco.mjtLimited.mjLIMITED_TRUE
+        jt.range = [float(dof.lower), float(dof.upper)]
+        m_jj = kp  # gains hold M_jj for position servos
+        act.set_to_position(kp=float(m_jj * SERVO_OMEGA**2),
+                            kv=float(2 * SERVO_ZETA * m_jj * SERVO_OMEGA))
+        act.ctrlrange = [float(dof.lower), float(dof.upper)]
+    act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+    act.forcerange = [-dof.effort, dof.effort]
+
+
 def _build(model: CompiledModel, art: Articulation, masses: dict[str, MassProps],
            free_root: bool, wheels: list[str], floor_z: float,
            gains: dict[str, float] | None, excluded: list[tuple[str, str]]) -> MjcfBuild:
@@ -171,25 +193,8 @@ def _build(model: CompiledModel, art: Articulation, masses: dict[str, MassProps]
                 act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
                 act.forcerange = [-j.effort, j.effort]
             continue
-        jtype = mujoco.mjtJoint.mjJNT_SLIDE if j.type == "prismatic" else mujoco.mjtJoint.mjJNT_HINGE
-        jt = body.add_joint(name=j.name, type=jtype, axis=[0, 0, 1], pos=[0, 0, 0])
-        if j.type == "continuous":
-            jt.limited = mujoco.mjtLimited.mjLIMITED_FALSE
-            act = spec.add_actuator(name=j.name, target=j.name,
-                                    trntype=mujoco.mjtTrn.mjTRN_JOINT)
-            act.set_to_velocity(kv=float(kp))
-            act.ctrlrange = [-j.velocity, j.velocity]
-        else:
-            jt.limited = mujoco.mjtLimited.mjLIMITED_TRUE
-            jt.range = [float(j.lower), float(j.upper)]
-            act = spec.add_actuator(name=j.name, target=j.name,
-                                    trntype=mujoco.mjtTrn.mjTRN_JOINT)
-            m_jj = kp  # gains hold M_jj for position servos
-            act.set_to_position(kp=float(m_jj * SERVO_OMEGA**2),
-                                kv=float(2 * SERVO_ZETA * m_jj * SERVO_OMEGA))
-            act.ctrlrange = [float(j.lower), float(j.upper)]
-        act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
-        act.forcerange = [-j.effort, j.effort]
+        for dof in j.dofs():  # one joint; a cylindrical joint's slide then turn, same axis
+            _dof_joint(spec, body, dof, (gains or {}).get(dof.name, 1.0))
     for a, b in excluded:
         spec.add_exclude(bodyname1=a, bodyname2=b)
     spec.assets = dict(assets)
@@ -215,16 +220,19 @@ def build_mjcf(model: CompiledModel, *, art: Articulation | None = None,
     mujoco.mj_fullM(m, d, mass_matrix)
     gains: dict[str, float] = {}
     for j in art.joints:
-        jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j.name)
-        dof = int(m.jnt_dofadr[jid])
-        mjj = float(mass_matrix[dof, dof])
-        if j.type == "continuous":  # velocity servo: stall torque = effort at full speed
-            gains[j.name] = max(2 * SERVO_ZETA * mjj * SERVO_OMEGA,
-                              j.effort / max(j.velocity, MIN_VELOCITY))
-        elif j.type == "spherical":  # the largest of its three diagonal inertias
+        if j.type == "spherical":  # the largest of its three diagonal inertias
+            jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j.name)
+            dof = int(m.jnt_dofadr[jid])
             gains[j.name] = float(np.max(np.diag(mass_matrix)[dof:dof + 3]))
-        else:
-            gains[j.name] = mjj
+            continue
+        for jd in j.dofs():
+            dof = int(m.jnt_dofadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, jd.name)])
+            mjj = float(mass_matrix[dof, dof])
+            if jd.type == "continuous":  # velocity servo: stall torque = effort at full speed
+                gains[jd.name] = max(2 * SERVO_ZETA * mjj * SERVO_OMEGA,
+                                     jd.effort / max(jd.velocity, MIN_VELOCITY))
+            else:
+                gains[jd.name] = mjj
     excluded: set[tuple[str, str]] = set()
     for c in d.contact[: d.ncon]:
         b1, b2 = int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2])

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from ..articulation.tree import Articulation
+from ..articulation.tree import Articulation, JointDof
 from ..config import TOL
 from .report import CheckResult
 
@@ -41,10 +41,26 @@ def warnings_of(d) -> dict[str, int]:
     return out
 
 
+def exported_names(art: Articulation) -> list[str]:
+    """The MuJoCo joint names: a spherical joint's own, every other joint's 1-DOF joints
+    (a cylindrical joint's ``__slide`` and ``__turn``)."""
+    return [n for j in art.joints for n in ([j.name] if j.type == "spherical"
+                                             else [d.name for d in j.dofs()])]
+
+
+def _dof(art: Articulation, name: str) -> JointDof:
+    for j in art.joints:
+        for d in j.dofs():
+            if d.name == name:
+                return d
+    raise KeyError(f"no 1-DOF joint named {name!r}")
+
+
 def _ids(m, art: Articulation):
     import mujoco
-    jid = {j.name: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j.name) for j in art.joints}
-    aid = {j.name: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, j.name) for j in art.joints}
+    names = exported_names(art)
+    jid = {n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n) for n in names}
+    aid = {n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, n) for n in names}
     return jid, aid
 
 
@@ -77,7 +93,8 @@ def check_b1(m, art: Articulation) -> tuple[CheckResult, list[np.ndarray]]:
             traj.append(d.qpos.copy())
     free = _free_dof(m)
     jid, _ = _ids(m, art)
-    speeds = {n: float(np.abs(d.qvel[m.jnt_dofadr[i]:m.jnt_dofadr[i] + (3 if art.joint(n).type == "spherical" else 1)]).max())
+    balls = {j.name for j in art.joints if j.type == "spherical"}
+    speeds = {n: float(np.abs(d.qvel[m.jnt_dofadr[i]:m.jnt_dofadr[i] + (3 if n in balls else 1)]).max())
               for n, i in jid.items() if i >= 0}
     worst = max(speeds, key=speeds.get) if speeds else None
     jspeed = speeds.get(worst, 0.0) if worst else 0.0
@@ -116,10 +133,11 @@ def _rot(q: np.ndarray) -> np.ndarray:
 
 
 def sweep_joint(m, art: Articulation, name: str) -> dict:
-    """Drive one joint through its range (others held at 0). Returns reach data and the
-    trajectory; gravity should be off in ``m`` (the sweep tests range, B1 tests gravity)."""
+    """Drive one 1-DOF joint (a joint's name, or a cylindrical joint's ``__slide`` / ``__turn``)
+    through its range (others held at 0). Returns reach data and the trajectory; gravity should
+    be off in ``m`` (the sweep tests range, B1 tests gravity)."""
     import mujoco
-    j = art.joint(name)
+    j = _dof(art, name)
     jid, aid = _ids(m, art)
     i, a = jid[name], aid[name]
     qadr = int(m.jnt_qposadr[i])

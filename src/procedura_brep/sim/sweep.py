@@ -350,6 +350,8 @@ class SweepScene:
         """The deepest new exact interference over the joint's samples."""
         if joint.type == "spherical":
             return self._sweep_ball(joint)
+        if joint.type == "cylindrical":
+            return self._sweep_cylindrical(joint)
         hit = SweepHit(joint.name)
         todo, hit.skipped_rest = self.pairs(joint)
         start = self.booleans
@@ -422,6 +424,23 @@ class SweepScene:
             op = BRepAlgoAPI_Common(shape, tool)
             return op.Shape() if op.IsDone() else shape
         return cut(pa.shape(), region), cut(pb.shape(), box_b)
+
+    def _sweep_cylindrical(self, joint: Joint) -> SweepHit:
+        """Both DOF of a cylindrical joint, each over its whole range at the other's compiled
+        value (the slide at the home angle, the turn at the home position), each spaced as a
+        prismatic or revolute joint's; the worst of the two."""
+        import dataclasses
+        slide = dataclasses.replace(joint, type="prismatic")
+        turn = dataclasses.replace(joint, type="continuous" if joint.turn_lower is None else "revolute",
+                                   lower=joint.turn_lower, upper=joint.turn_upper)
+        hits = [self.sweep(slide), self.sweep(turn)]
+        worst = max(range(2), key=lambda k: hits[k].depth)
+        out = dataclasses.replace(hits[worst], joint=joint.name, samples=sum(h.samples for h in hits),
+                                  booleans=sum(h.booleans for h in hits),
+                                  step_mm=max(h.step_mm for h in hits))
+        if out.pair is not None:
+            out.at = f"{('slide', 'turn')[worst]} {out.at}"
+        return out
 
     def _sweep_ball(self, joint: Joint) -> SweepHit:
         hit = SweepHit(joint.name)
