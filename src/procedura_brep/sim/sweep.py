@@ -52,6 +52,10 @@ log = logging.getLogger(__name__)
 #: At most this many poses per part pair: a spacing finer than this allows is widened (and
 #: the widened step is reported). Keeps a pathological part (a 10 m boom) from stalling B2.
 MAX_PAIR_SAMPLES = 20000
+#: Conservative advancement looks this far (mm) for the fixed part's surface: a cell further
+#: away counts as this far (a shorter advance, never a missed contact), which keeps the
+#: nearest-neighbour queries cheap.
+ADVANCE_HORIZON_MM = 25.0
 #: Spherical joints: tilt directions (about axes in the frame's XY plane, evenly spaced).
 SPHERE_DIRECTIONS = 8
 #: Spherical joints: tilts as fractions of the cone half-angle.
@@ -360,40 +364,77 @@ class SweepScene:
             cells, radius = self.orbit_cells(joint, a, b)
             if not len(cells):
                 continue
-            values = joint_values(joint, radius, extra)
-            hit.samples = max(hit.samples, len(values))
-            if joint.type != "prismatic" and len(values) > 1:
-                span = (values[-1] - values[0]) if joint.type != "continuous" else 2 * math.pi
-                hit.step_mm = max(hit.step_mm, radius * span / max(1, len(values) - 1))
-            elif joint.type == "prismatic" and len(values) > 1:
-                hit.step_mm = max(hit.step_mm, 1000.0 * (values[-1] - values[0]) / (len(values) - 1))
-            motions = np.array([motion(joint, q) for q in values])
-            ok = _obb_overlap_many(*self._posed_boxes(a, motions), self.obb(b, eye), TOL.sweep_box_slack_mm)
-            rest = self.rest(a, b).depth
-            crops = None
-            for k in np.nonzero(ok)[0]:
-                if not self._covers_meet(cells, motions[k], a, b, joint):
-                    continue
-                if crops is None:
-                    crops = self._crops(joint, a, b, cells, motions, rest)
-                self.booleans += 1
-                o = exact_overlap(a, kernel.located(crops[0], motions[k]), b, crops[1])
-                new = o.depth - rest
-                if new > hit.depth:
-                    q = values[k]
-                    hit.depth, hit.volume, hit.pair, hit.at, hit.value = new, o.volume, (a, b), label(joint, q), q
+            n, worst = self._sweep_pair(joint, a, b, cells, extra)
+            hit.samples = max(hit.samples, n)
+            hit.step_mm = TOL.sweep_step_mm
+            if worst is not None and worst[0] > hit.depth:
+                hit.depth, hit.volume, q = worst
+                hit.pair, hit.at, hit.value = (a, b), label(joint, q), q
         hit.booleans = self.booleans - start
         log.debug("sweep %s: %d samples max, %d pairs, %d booleans, worst %.3g mm", joint.name,
                   hit.samples, len(todo), hit.booleans, hit.depth)
         return hit
 
-    def _crops(self, joint: Joint, a: str, b: str, cells: np.ndarray, motions: np.ndarray,
+    def _sweep_pair(self, joint: Joint, a: str, b: str, cells: np.ndarray,
+                    extra: tuple[float, ...]) -> tuple[int, tuple[float, float, float] | None]:
+        """Conservative advancement along the range: at each pose every cell's gap to the fixed
+        part's cover bounds how far its points may move before they can touch, so the next pose
+        is the nearest at which some cell has moved its gap plus ``TOL.sweep_step_mm``, and never
+        closer than ``sweep_step_mm`` at the largest lever arm. No point of a cell within reach of
+        the fixed part moves more than ``sweep_step_mm`` between two poses. Returns (poses,
+        (new depth, volume, joint value) of the worst pose or None)."""
+        (ca, _), (cb, tb) = self.cover(a, joint), self.cover(b)
+        inv = rigid_inverse(joint.frame)
+        local = cells @ inv[:3, :3].T + inv[:3, 3]
+        if joint.type == "prismatic":  # mm of travel per metre of joint value
+            lever = np.full(len(cells), 1000.0)
+        else:  # mm per radian
+            lever = np.linalg.norm(local[:, :2], axis=1) + ca.radius
+        if joint.type == "continuous":
+            lo, hi = 0.0, 2 * math.pi
+        else:
+            lo, hi = float(joint.lower), float(joint.upper)  # type: ignore[arg-type]
+        step = TOL.sweep_step_mm
+        min_adv = max(step / float(lever.max()), (hi - lo) / MAX_PAIR_SAMPLES)
+        reach = ca.radius + cb.radius
+        box_b = self.obb(b, np.eye(4))
+        rest = self.rest(a, b).depth
+        crops = None
+        worst: tuple[float, float, float] | None = None
+        outside = [q for q in extra if q < lo - OVERSHOOT_EPS or q > hi + OVERSHOOT_EPS]
+        poses, q = 0, lo
+        while True:
+            m = motion(joint, q)
+            poses += 1
+            dist, _ = tb.query(cells @ m[:3, :3].T + m[:3, 3],
+                               distance_upper_bound=reach + ADVANCE_HORIZON_MM)
+            gap = np.minimum(dist, reach + ADVANCE_HORIZON_MM) - reach
+            if (gap <= 0).any() and _obb_overlap(self.obb(a, m), box_b, TOL.sweep_box_slack_mm):
+                if crops is None:
+                    crops = self._crops(joint, a, b, local, rest)
+                self.booleans += 1
+                o = exact_overlap(a, kernel.located(crops[0], m), b, crops[1])
+                if worst is None or o.depth - rest > worst[0]:
+                    worst = (o.depth - rest, o.volume, q)
+            if outside:
+                q = outside.pop()
+                continue
+            if q >= hi - 1e-12:
+                break
+            adv = max(float(np.min((np.maximum(gap, 0.0) + step) / lever)), min_adv)
+            q = min(q + adv, hi)
+            if joint.type == "continuous" and q >= hi - 1e-12:
+                break  # a full turn: 2 pi is the first pose again
+        return poses, worst
+
+    def _crops(self, joint: Joint, a: str, b: str, local: np.ndarray,
                rest: float) -> tuple[object, object]:
-        """(``a`` at rest, ``b``) cut down to the regions any interference along the sweep
-        lies in: for a pair clear at rest, every boundary point of a common solid is either a
-        moved surface point of ``a`` from ``cells`` or a point of ``b`` that such a point passed,
-        so the common lies in the box of the posed cells (plus a step) and in the solid of
-        revolution (a box along a prismatic axis) of the cells about the joint. A pair that
+        """(``a`` at rest, ``b``) both cut to the region any interference along the sweep lies
+        in. For a pair clear at rest every boundary point of a common solid is a moved surface
+        point of ``a`` from the relevant cells (``local``, in the joint frame) or a point of
+        ``b`` on the orbit of one, and the common lies in the convex hull of its boundary: so it
+        lies in the solid cylinder about a revolute axis holding those cells (a box stretched by
+        the travel along a prismatic axis), grown by a cell radius and a step. A pair that
         interferes at rest is not cut."""
         pa, pb = self.model.part(a), self.model.part(b)
         if rest > 0.0:
@@ -402,11 +443,6 @@ class SweepScene:
         from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox, BRepPrimAPI_MakeCylinder
         from OCP.gp import gp_Pnt
         grow = self.cover(a, joint)[0].radius + TOL.sweep_step_mm + TOL.sweep_box_slack_mm
-        posed = np.einsum("nij,kj->nki", motions[:, :3, :3], cells) + motions[:, None, :3, 3]
-        lo, hi = posed.reshape(-1, 3).min(axis=0) - grow, posed.reshape(-1, 3).max(axis=0) + grow
-        box_b = BRepPrimAPI_MakeBox(gp_Pnt(*map(float, lo)), gp_Pnt(*map(float, hi))).Shape()
-        inv = rigid_inverse(joint.frame)
-        local = cells @ inv[:3, :3].T + inv[:3, 3]
         zlo, zhi = float(local[:, 2].min()) - grow, float(local[:, 2].max()) + grow
         if joint.type == "prismatic":
             zlo += 1000.0 * min(0.0, float(joint.lower))  # type: ignore[arg-type]
@@ -420,10 +456,10 @@ class SweepScene:
             region = kernel.located(BRepPrimAPI_MakeCylinder(r, zhi - zlo).Shape(), trans_z(zlo))
         region = kernel.located(region, joint.frame)
 
-        def cut(shape, tool):
-            op = BRepAlgoAPI_Common(shape, tool)
+        def cut(shape):
+            op = BRepAlgoAPI_Common(shape, region)
             return op.Shape() if op.IsDone() else shape
-        return cut(pa.shape(), region), cut(pb.shape(), box_b)
+        return cut(pa.shape()), cut(pb.shape())
 
     def _sweep_cylindrical(self, joint: Joint) -> SweepHit:
         """Both DOF of a cylindrical joint, each over its whole range at the other's compiled
