@@ -173,3 +173,18 @@ def test_vise_neck_wider_than_the_cup_fails_b2_on_the_ball(worker, tmp_path):
         assert len(b2.frames) <= 8 and all((tmp_path / f).exists() for f in b2.frames)
     else:
         assert any("B2" in n for n in report.notes)
+
+
+def test_every_part_of_the_moved_link_meets_every_part_of_the_parent_link(worker):
+    """The blade's link has a second part (a tip weight) and the post's link a second part (a
+    raised fin): the tip hits the fin, though neither is the joint's own child or parent part;
+    without the tip the blade passes under the fin."""
+    from sim.fin import program as fin_program
+    with_tip = _compile("fin", fin_program(21.9, fin_z=33.0, tip=True), worker)
+    art = articulate(with_tip)
+    assert art.part_link["tip"] == art.part_link["blade"] and art.part_link["fin"] == art.part_link["post"]
+    hit = SweepScene(with_tip, art).sweep(art.joint("blade_pivot"))
+    assert hit.pair == ("tip", "fin") and hit.depth > TOL.sim_penetration_mm
+    bare = _compile("fin", fin_program(21.9, fin_z=33.0), worker)
+    art = articulate(bare)
+    assert SweepScene(bare, art).sweep(art.joint("blade_pivot")).depth <= TOL.sim_penetration_mm

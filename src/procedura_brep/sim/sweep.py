@@ -3,10 +3,11 @@
 MuJoCo only sees convex hulls and stops only where they meet, so a part can pass *through*
 another between the two extremes a sweep reaches. Here every (moved, fixed) part pair of a
 joint is sampled along the joint's whole range (a continuous joint over a full turn) with a
-spacing chosen from the geometry: no point of the moved part that can come near the fixed
-part travels more than ``TOL.sweep_step_mm`` between two samples (an angular step of
-``step / r`` for the largest radius ``r`` about the axis of such a point; a linear step of
-``step`` along a prismatic axis). A fin thicker than the step cannot lie between two samples.
+spacing chosen from the geometry, by conservative advancement: no point of the moved part that
+is within reach of the fixed part travels more than ``TOL.sweep_step_mm`` between two samples,
+and points further away move at most their gap plus that step (see
+:meth:`SweepScene._sweep_pair`). A fin thicker than the step cannot lie between two samples.
+A cylindrical joint is swept on each DOF at the other's compiled value.
 Each spherical joint is tilted to :data:`SPHERE_FRACTIONS` of its cone in
 :data:`SPHERE_DIRECTIONS` directions (coarse: see docs/battery.md). At each sample the moved
 part is posed with the mate-frame closed form (``F @ delta @ F^-1``, see
@@ -26,8 +27,9 @@ Cost is kept down by prefilters, all conservative for the thickness measure:
 * only the moved part's surface cells (:mod:`.cells`) whose orbit (radius and height about a
   revolute axis, cross-axis position for a prismatic one) passes near the fixed part's cells
   count, and they alone set the sample spacing;
-* per sample, the parts' oriented local bounding boxes must intersect (separating-axis test,
-  vectorised over the samples), and then their surface-cell covers must meet.
+* per pose, the surface-cell covers must meet and the parts' oriented local bounding boxes
+  intersect (separating-axis test) before the exact boolean runs, on both parts cut once per
+  pair to the region an interference along the sweep can lie in.
 """
 
 from __future__ import annotations
@@ -176,26 +178,6 @@ def _obb_overlap(a: tuple[np.ndarray, np.ndarray, np.ndarray], b: tuple[np.ndarr
     return True
 
 
-def _obb_overlap_many(ca: np.ndarray, ra: np.ndarray, ha: np.ndarray,
-                      b: tuple[np.ndarray, np.ndarray, np.ndarray], slack: float) -> np.ndarray:
-    """:func:`_obb_overlap` of N posed boxes (centres (N, 3), rotations (N, 3, 3), one half
-    extent (3,)) against one box ``b``: a boolean (N,)."""
-    cb, rb, hb = b
-    t = cb[None, :] - ca
-    axes = [ra[:, :, i] for i in range(3)] + [np.broadcast_to(rb[:, k], ca.shape) for k in range(3)]
-    for i in range(3):
-        for k in range(3):
-            c = np.cross(ra[:, :, i], rb[:, k][None, :])
-            n = np.linalg.norm(c, axis=1, keepdims=True)
-            axes.append(np.where(n > 1e-9, c / np.where(n > 1e-9, n, 1.0), 0.0))
-    ok = np.ones(len(ca), dtype=bool)
-    for ax in axes:
-        pa = np.abs(np.einsum("nji,nj->ni", ra, ax)) @ ha
-        pb = np.abs(ax @ rb) @ hb
-        ok &= np.abs(np.einsum("nj,nj->n", t, ax)) <= pa + pb + slack
-    return ok
-
-
 class SweepScene:
     """The model's parts with their shapes and local boxes cached, for many posed queries."""
 
@@ -338,17 +320,6 @@ class SweepScene:
             return ca.centres[:0], 0.0
         radius = 0.0 if joint.type == "prismatic" else float(qa[near, 0].max()) + ca.radius
         return ca.centres[near], radius
-
-    def _covers_meet(self, a_cells: np.ndarray, ma: np.ndarray, a: str, b: str, joint: Joint) -> bool:
-        (ca, _), (cb, tb) = self.cover(a, joint), self.cover(b)
-        posed = a_cells @ ma[:3, :3].T + ma[:3, 3]
-        dist, _ = tb.query(posed, distance_upper_bound=ca.radius + cb.radius)
-        return bool(np.isfinite(dist).any())
-
-    def _posed_boxes(self, name: str, motions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        lo, hi = self._local_box(name)
-        t = motions @ self.model.part(name).placement
-        return np.einsum("nij,j->ni", t[:, :3, :3], (lo + hi) / 2) + t[:, :3, 3], t[:, :3, :3], (hi - lo) / 2
 
     def sweep(self, joint: Joint, extra: tuple[float, ...] = ()) -> SweepHit:
         """The deepest new exact interference over the joint's samples."""
