@@ -373,23 +373,30 @@ class SweepScene:
         crops = None
         worst: tuple[float, float, float] | None = None
         outside = [q for q in extra if q < lo - OVERSHOOT_EPS or q > hi + OVERSHOOT_EPS]
-        poses, q = 0, lo
-        while True:
+
+        def check(q: float) -> np.ndarray:
+            """Check the pose at ``q``; return every cell's gap to the fixed part (mm)."""
+            nonlocal crops, worst
             m = motion(joint, q)
-            poses += 1
             dist, _ = tb.query(cells @ m[:3, :3].T + m[:3, 3],
                                distance_upper_bound=reach + ADVANCE_HORIZON_MM)
             gap = np.minimum(dist, reach + ADVANCE_HORIZON_MM) - reach
             if (gap <= 0).any() and _obb_overlap(self.obb(a, m), box_b, TOL.sweep_box_slack_mm):
                 if crops is None:
-                    crops = self._crops(joint, a, b, local, rest)
+                    crops = self._crops(joint, a, b, local, rest,
+                                        (min([lo, *outside]), max([hi, *outside])))
                 self.booleans += 1
                 o = exact_overlap(a, kernel.located(crops[0], m), b, crops[1])
                 if worst is None or o.depth - rest > worst[0]:
                     worst = (o.depth - rest, o.volume, q)
-            if outside:
-                q = outside.pop()
-                continue
+            return gap
+
+        for q in outside:  # MuJoCo overshoots beyond the commanded range: one pose each
+            check(q)
+        poses, q = len(outside), lo
+        while True:
+            gap = check(q)
+            poses += 1
             if q >= hi - 1e-12:
                 break
             adv = max(float(np.min((np.maximum(gap, 0.0) + step) / lever)), min_adv)
@@ -398,15 +405,15 @@ class SweepScene:
                 break  # a full turn: 2 pi is the first pose again
         return poses, worst
 
-    def _crops(self, joint: Joint, a: str, b: str, local: np.ndarray,
-               rest: float) -> tuple[object, object]:
+    def _crops(self, joint: Joint, a: str, b: str, local: np.ndarray, rest: float,
+               span: tuple[float, float]) -> tuple[object, object]:
         """(``a`` at rest, ``b``) both cut to the region any interference along the sweep lies
         in. For a pair clear at rest every boundary point of a common solid is a moved surface
         point of ``a`` from the relevant cells (``local``, in the joint frame) or a point of
         ``b`` on the orbit of one, and the common lies in the convex hull of its boundary: so it
         lies in the solid cylinder about a revolute axis holding those cells (a box stretched by
         the travel along a prismatic axis), grown by a cell radius and a step. A pair that
-        interferes at rest is not cut."""
+        interferes at rest is not cut. ``span`` is the joint values checked (m or rad)."""
         pa, pb = self.model.part(a), self.model.part(b)
         if rest > 0.0:
             return pa.shape(), pb.shape()
@@ -415,9 +422,9 @@ class SweepScene:
         from OCP.gp import gp_Pnt
         grow = self.cover(a, joint)[0].radius + TOL.sweep_step_mm + TOL.sweep_box_slack_mm
         zlo, zhi = float(local[:, 2].min()) - grow, float(local[:, 2].max()) + grow
-        if joint.type == "prismatic":
-            zlo += 1000.0 * min(0.0, float(joint.lower))  # type: ignore[arg-type]
-            zhi += 1000.0 * max(0.0, float(joint.upper))  # type: ignore[arg-type]
+        if joint.type == "prismatic":  # stretched by the travel (``span``, m)
+            zlo += 1000.0 * min(0.0, span[0])
+            zhi += 1000.0 * max(0.0, span[1])
             xlo, ylo = local[:, :2].min(axis=0) - grow
             xhi, yhi = local[:, :2].max(axis=0) + grow
             region = BRepPrimAPI_MakeBox(gp_Pnt(float(xlo), float(ylo), zlo),
