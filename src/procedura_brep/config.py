@@ -78,6 +78,19 @@ class Tolerances:
         sweep_rest_interference_mm: battery B2: a pair thicker than this at rest is interfering
             at rest (checked by B3 and the mate gate) and is not swept.
         sweep_box_slack_mm: battery B2: slack added to the box prefilters of the sweep.
+        sweep_step_mm: battery B2: the most any point of a moved part that can come near a
+            fixed part travels between two sweep samples (so a fin this thick cannot be
+            stepped over).
+        sweep_cell_mm: battery B2: side of the surface cells whose sphere cover prefilters the
+            exact checks (smaller: fewer booleans near contacts, more cells to query).
+        wheel_axis_deg: articulation: a wheel's symmetry axis is parallel to its joint axis
+            within this angle.
+        wheel_centre_mm: articulation: a wheel's symmetry axis passes this close to its joint
+            axis line.
+        wheel_ground_mm: articulation: a wheel's lowest point is within this of the model's
+            lowest point (the floor).
+        drive_max_yaw_deg: battery B4: the most the base may turn while one uniform command
+            drives every wheel (a straight drive).
         nonconvex_ratio: exports: a mesh component whose convex hull volume exceeds its own
             volume by this factor is decomposed into convex collision pieces (CoACD).
         normal_crease_deg: GLB vertex normals: two triangles sharing an edge are shaded smooth
@@ -127,8 +140,14 @@ class Tolerances:
     contact_plane_cos: float = 0.99995
     sweep_rest_interference_mm: float = 1e-3
     sweep_box_slack_mm: float = 0.01
+    sweep_step_mm: float = 1.0
+    sweep_cell_mm: float = 1.5
     nonconvex_ratio: float = 1.3
     normal_crease_deg: float = 30.0
+    wheel_axis_deg: float = 1.0
+    wheel_centre_mm: float = 0.5
+    wheel_ground_mm: float = 1.0
+    drive_max_yaw_deg: float = 5.0
 
 
 @dataclass(frozen=True)

@@ -17,8 +17,10 @@ def test_every_option_of_every_mate_type_has_its_range_and_meaning():
             line = next((x for x in block.splitlines() if x.strip().startswith(f"- {name} = ")), None)
             assert line is not None, (t.name, name)
             assert opt.doc and opt.doc in line, (t.name, name)
-            if opt.low is not None:
-                assert f"[{opt.low:g}, {opt.high:g}]" in line, (t.name, name)
+            if opt.choices:
+                assert all(repr(c) in line for c in opt.choices), (t.name, name)
+            elif opt.low is not None or opt.high is not None:
+                assert opt.range_text() in line, (t.name, name)
         assert all(f in block for f in t.fits)
 
 

@@ -73,3 +73,16 @@ def test_symmetry_axis_and_contact_area(blocks):
     (c,) = ev["contacts"]
     assert {c["a"], c["b"]} == {"a", "b"}
     assert c["area_mm2"] == pytest.approx(400.0, rel=0.02)
+
+
+def test_explicit_effort_and_velocity_are_kept():
+    """An explicit small value (and even 0, were it to get past the compiler) is never replaced
+    by the default, as an ``or`` default did."""
+    from procedura_brep.articulation.tree import mate_option
+    from procedura_brep.mates import TYPES
+
+    m = mate("j", "b", "a", kind="kinematic", mtype="revolute",
+             options={"limits": None, "effort": 0.0, "velocity": 0.25})
+    assert mate_option(m, "effort") == 0.0 and mate_option(m, "velocity") == 0.25
+    bare = mate("k", "b", "a", kind="kinematic", mtype="revolute", options={"limits": None})
+    assert mate_option(bare, "effort") == TYPES["revolute"].options["effort"].default

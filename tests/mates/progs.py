@@ -43,6 +43,7 @@ CASES = [
     ("revolute", 10.0, "clearance", ", limits=(-45, 90)"),
     ("prismatic", 12.0, "clearance", ", limits=(-5, 20)"),
     ("spherical", 20.0, "clearance", ", cone=30"),
+    ("cylindrical", 16.0, "clearance", ", limits=(-5, 20), angle_limits=(-90, 120), home=4, home_angle=30"),
 ]
 
 

@@ -73,3 +73,28 @@ def test_out_of_range_is_refused_naming_value_and_range(pair, mtype, bad, messag
     with pytest.raises(RangeError, match=message):
         j.move(bad)
     assert np.array_equal(loc_matrix(child.location), before)  # nothing moved
+
+
+def test_cylindrical_follows_the_closed_form_to_the_limits_of_its_range(pair):
+    """Slide and turn together, up to both ends of both ranges, on a tilted parent frame."""
+    parent, child = pair
+    j = kinematic("cylindrical", parent, child, FP, FC, "m", limits=(-50.0, 60.0),
+                  angle_limits=(-90.0, 135.0))
+    for v in [(0.0, 0.0), (-50.0, -90.0), (60.0, 135.0), (-50.0, 135.0), (60.0, -90.0), (7.5, 33.0)]:
+        j.move(v)
+        d, a = close(child, parent, "cylindrical", v)
+        assert d < 1e-9 and a < 1e-12, (v, d, a)
+    before = loc_matrix(child.location)
+    with pytest.raises(RangeError, match=r"m \(cylindrical\) position = 61 mm is outside the allowed range \[-50, 60\] mm"):
+        j.move((61.0, 0.0))
+    with pytest.raises(RangeError, match=r"m \(cylindrical\) angle = 136 deg is outside the allowed range \[-90, 135\] deg"):
+        j.move((0.0, 136.0))
+    assert np.array_equal(loc_matrix(child.location), before)  # nothing moved
+
+
+def test_cylindrical_free_turn_goes_past_a_full_turn(pair):
+    parent, child = pair
+    j = kinematic("cylindrical", parent, child, FP, FC, "m", limits=(-50.0, 60.0))
+    j.move((10.0, 400.0))
+    d, a = close(child, parent, "cylindrical", (10.0, 400.0))
+    assert d < 1e-9 and a < 1e-12

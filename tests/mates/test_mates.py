@@ -40,7 +40,7 @@ def test_child_frame_coincides_with_parent_frame(built, mtype):
     dist, ang = pl.residual(child.world_frame("foot"), mate.world_frame)
     assert dist <= 1e-6 and ang <= 1e-9
     parent = m.part("base")
-    home = mate.options.get("home") if mate.kind == "kinematic" else None
+    home = pl.home_value(mtype, mate.options) if mate.kind == "kinematic" else None
     expect = parent.world_frame("top") @ pl.delta(mtype, home)
     dist, ang = pl.residual(mate.world_frame, expect)
     assert dist <= 1e-6 and ang <= 1e-9
@@ -171,3 +171,16 @@ def test_fit_not_allowed_for_type(worker):
     from procedura_brep.program.sandbox import CompileOptions
     m = worker.compile(program("snap_tab", 12.0, "press"), CompileOptions())
     assert any("takes fit snap, not 'press'" in f.message for f in m.findings)
+
+
+@pytest.mark.parametrize("options, message", [
+    (", limits=(-45, 90), effort=0", "option effort = 0 is outside (0, 1e+06]"),
+    (", limits=(-45, 90), velocity=0", "option velocity = 0 is outside (0, 10000]"),
+])
+def test_zero_effort_or_velocity_is_a_range_error(worker, options, message):
+    """A kinematic joint that may exert no effort or move at no speed cannot move: refused,
+    never silently replaced by a default."""
+    from procedura_brep.program.sandbox import CompileOptions
+    m = worker.compile(program("revolute", 10.0, "clearance", options), CompileOptions())
+    assert not m.ok
+    assert any(message in f.message and f.mate == "block_foot" for f in m.findings), m.findings

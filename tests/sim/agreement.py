@@ -23,6 +23,8 @@ def joint_errors(root: Path, art: Articulation) -> dict[tuple[str, str], tuple[f
             frame = j.frame
             if fmt == "urdf-strict" and j.type == "spherical":
                 keys = [(f"{j.name}__{a}", frame[:3, k]) for k, a in enumerate("xyz")]
+            elif j.type == "cylindrical" and fmt != "usd":  # slide + turn, one axis
+                keys = [(d.name, frame[:3, 2]) for d in j.dofs()]
             else:
                 keys = [(j.name, frame[:3, 2])]
             for key, axis in keys:

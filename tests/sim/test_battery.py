@@ -80,7 +80,7 @@ def rover(worker):
 
 
 @pytest.mark.slow
-def test_rover_wheels_off_the_ground_fail_b4(rover, tmp_path):
+def test_rover_wheels_lifted_off_the_ground_are_not_wheels(rover, tmp_path):
     from procedura_brep.articulation import articulate
     from procedura_brep.export.mjcf import wheel_joints
     from procedura_brep.program.model import from_json, to_json
@@ -97,9 +97,13 @@ def test_rover_wheels_off_the_ground_fail_b4(rover, tmp_path):
     for m in lifted.mates:
         if m.child in wheel_parts:
             m.world_frame = up @ m.world_frame
+    # lifted 80 mm, they no longer reach the floor: by evidence they are spinning joints, not
+    # wheels, so the base is welded and B4 has nothing to drive
+    art2 = articulate(lifted)
+    assert art2.wheels == []
     report = run_battery(lifted, out_dir=tmp_path, checks=["B4"], frames=False)
     b4 = report.check("B4")
-    assert not b4.passed and not b4.skipped and "wheel" in b4.message
+    assert b4.skipped
 
 
 def test_no_out_dir_leaves_no_temp_dir(lamp):

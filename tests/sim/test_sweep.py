@@ -14,8 +14,7 @@ from procedura_brep.articulation.tree import Joint
 from procedura_brep.config import TOL
 from procedura_brep.mates.placement import rigid_inverse, rot_x, spherical_tilt_deg, trans
 from procedura_brep.sim import run_battery
-from procedura_brep.sim.sweep import (MAX_SAMPLES, REVOLUTE_STEP_DEG, SPHERE_DIRECTIONS,
-                                      SweepScene, samples)
+from procedura_brep.sim.sweep import SPHERE_DIRECTIONS, SweepScene, samples
 
 GOLDEN = Path(__file__).resolve().parents[2] / "golden"
 FRAME = trans(10.0, 20.0, 30.0) @ rot_x(35.0)
@@ -26,16 +25,22 @@ def _joint(jtype: str, lower: float | None, upper: float | None) -> Joint:
                  upper=upper, effort=1.0, velocity=1.0, mate=None)  # type: ignore[arg-type]
 
 
-def test_revolute_samples_cover_the_range_every_5_degrees():
-    s = samples(_joint("revolute", math.radians(-135), math.radians(135)))
-    q = np.degrees([x.value for x in s])
-    assert q[0] == pytest.approx(-135) and q[-1] == pytest.approx(135)
-    assert len(s) <= MAX_SAMPLES and np.diff(q).max() <= 270 / (MAX_SAMPLES - 1) + 1e-9
-    short = np.degrees([x.value for x in samples(_joint("revolute", 0.0, math.radians(90)))])
-    assert np.diff(short).max() <= REVOLUTE_STEP_DEG + 1e-9
+def test_revolute_samples_move_no_point_more_than_the_step():
+    radius = 140.0
+    s = samples(_joint("revolute", math.radians(-135), math.radians(135)), radius_mm=radius)
+    q = np.array([x.value for x in s])
+    assert q[0] == pytest.approx(math.radians(-135)) and q[-1] == pytest.approx(math.radians(135))
+    assert np.diff(q).max() * radius <= TOL.sweep_step_mm + 1e-9
+    assert TOL.sweep_step_mm <= 1.0
     # the motion is a rotation about the joint axis through the anchor
     m = s[0].motion
     assert np.allclose(m @ FRAME[:, 3], FRAME[:, 3]) and np.allclose(m[:3, :3] @ FRAME[:3, 2], FRAME[:3, 2])
+
+
+def test_prismatic_samples_step_the_travel():
+    q = np.array([x.value for x in samples(_joint("prismatic", -0.02, 0.05))])
+    assert q[0] == pytest.approx(-0.02) and q[-1] == pytest.approx(0.05)
+    assert np.diff(q).max() * 1000.0 <= TOL.sweep_step_mm + 1e-9
 
 
 def test_spherical_samples_tilt_half_and_full_cone_in_8_directions():
@@ -54,8 +59,58 @@ def test_spherical_samples_tilt_half_and_full_cone_in_8_directions():
     assert dirs == {0, 45, 90, 135, 180, 225, 270, 315}
 
 
-def test_continuous_joints_have_no_samples():
-    assert samples(_joint("continuous", None, None)) == []
+def test_continuous_joints_are_sampled_over_a_full_turn():
+    s = samples(_joint("continuous", None, None), radius_mm=60.0)
+    q = np.array([x.value for x in s])
+    assert q[0] == 0.0 and q[-1] < 2 * math.pi and (2 * math.pi - q[-1]) * 60.0 <= TOL.sweep_step_mm + 1e-9
+    assert np.diff(q).max() * 60.0 <= TOL.sweep_step_mm + 1e-9
+
+
+FIN_ANGLES = (7.3, 21.9, -33.4, 48.1)
+
+
+@pytest.fixture(scope="module")
+def fins(worker):
+    from sim.fin import program as fin_program
+    return {phi: _compile("fin", fin_program(phi), worker) for phi in (None, *FIN_ANGLES)}
+
+
+@pytest.mark.parametrize("phi", FIN_ANGLES)
+def test_a_1mm_fin_in_the_path_is_hit_wherever_it_stands(fins, phi):
+    model = fins[phi]
+    art = articulate(model)
+    hit = SweepScene(model, art).sweep(art.joint("blade_pivot"))
+    assert hit.pair == ("blade", "fin") and hit.depth > TOL.sim_penetration_mm
+    assert abs(math.degrees(hit.value) - phi) < 2.0, hit.at
+
+
+def test_without_the_fin_the_blade_sweeps_clear(fins):
+    model = fins[None]
+    art = articulate(model)
+    hit = SweepScene(model, art).sweep(art.joint("blade_pivot"))
+    assert hit.depth <= TOL.sim_penetration_mm and hit.pair is None
+
+
+def test_a_coarse_step_steps_over_a_fin(fins, monkeypatch):
+    """The planted fault: with an 8 degree step at the fin (20 mm at 140 mm) some fin is missed,
+    so the fin tests above depend on the geometric spacing."""
+    import dataclasses
+
+    from procedura_brep.sim import sweep
+    monkeypatch.setattr(sweep, "TOL", dataclasses.replace(TOL, sweep_step_mm=20.0))
+    missed = []
+    for phi in FIN_ANGLES:
+        art = articulate(fins[phi])
+        if SweepScene(fins[phi], art).sweep(art.joint("blade_pivot")).depth <= TOL.sim_penetration_mm:
+            missed.append(phi)
+    assert missed
+
+
+@pytest.mark.slow
+def test_a_fin_fails_b2_in_the_battery(fins, tmp_path):
+    report = run_battery(fins[FIN_ANGLES[1]], out_dir=tmp_path, checks=["B2"], frames=False)
+    b2 = report.check("B2")
+    assert not b2.passed and "'blade_pivot' drives 'blade'" in b2.message and "'fin'" in b2.message
 
 
 def _compile(name: str, source: str, worker):
@@ -118,3 +173,18 @@ def test_vise_neck_wider_than_the_cup_fails_b2_on_the_ball(worker, tmp_path):
         assert len(b2.frames) <= 8 and all((tmp_path / f).exists() for f in b2.frames)
     else:
         assert any("B2" in n for n in report.notes)
+
+
+def test_every_part_of_the_moved_link_meets_every_part_of_the_parent_link(worker):
+    """The blade's link has a second part (a tip weight) and the post's link a second part (a
+    raised fin): the tip hits the fin, though neither is the joint's own child or parent part;
+    without the tip the blade passes under the fin."""
+    from sim.fin import program as fin_program
+    with_tip = _compile("fin", fin_program(21.9, fin_z=33.0, tip=True), worker)
+    art = articulate(with_tip)
+    assert art.part_link["tip"] == art.part_link["blade"] and art.part_link["fin"] == art.part_link["post"]
+    hit = SweepScene(with_tip, art).sweep(art.joint("blade_pivot"))
+    assert hit.pair == ("tip", "fin") and hit.depth > TOL.sim_penetration_mm
+    bare = _compile("fin", fin_program(21.9, fin_z=33.0), worker)
+    art = articulate(bare)
+    assert SweepScene(bare, art).sweep(art.joint("blade_pivot")).depth <= TOL.sim_penetration_mm

@@ -38,8 +38,10 @@ def reference() -> str:
 
 def option_line(name: str, opt: Any) -> str:
     """``name = default, range [lo, hi]: meaning (unit)`` for one mate option."""
-    if opt.low is not None and opt.high is not None:
-        rng = f"{'whole number in ' if opt.integer else ''}[{opt.low:g}, {opt.high:g}]"
+    if opt.choices:
+        rng = "one of " + ", ".join(repr(c) for c in opt.choices)
+    elif opt.low is not None or opt.high is not None:
+        rng = f"{'whole number in ' if opt.integer else ''}{opt.range_text()}"
     elif isinstance(opt.default, bool):
         rng = "True or False"
     else:

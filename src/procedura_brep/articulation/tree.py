@@ -19,11 +19,30 @@ from typing import Literal
 import numpy as np
 
 from ..errors import ProceduraError
+from ..mates.vocabulary import TYPES
 from ..program.model import CompiledMate, CompiledModel
 
 log = logging.getLogger(__name__)
 
-JointType = Literal["revolute", "continuous", "prismatic", "spherical"]
+JointType = Literal["revolute", "continuous", "prismatic", "spherical", "cylindrical"]
+DofType = Literal["revolute", "continuous", "prismatic"]
+
+#: Suffixes of a cylindrical joint's two exported joints (slide, then turn, on one axis).
+SLIDE, TURN = "__slide", "__turn"
+
+
+@dataclass(frozen=True)
+class JointDof:
+    """One exported 1-DOF joint: a revolute, continuous or prismatic joint is its own; a
+    cylindrical joint has two on its axis, ``<name>__slide`` (prismatic) then ``<name>__turn``
+    (revolute, or continuous without angle limits)."""
+
+    name: str
+    type: DofType
+    lower: float | None
+    upper: float | None
+    effort: float
+    velocity: float
 
 
 class ArticulationError(ProceduraError, ValueError):
@@ -62,6 +81,12 @@ class Joint:
         effort: N m or N.
         velocity: rad/s or m/s.
         mate: the source mate.
+        flipped: a wheel whose frame was turned half a turn about X so that a positive command
+            rolls it forward (its axis is then the mate frame's -Z; see :mod:`.wheels`).
+        turn_lower, turn_upper: a cylindrical joint's angle limits relative to the compiled
+            pose, rad (None: a free turn); ``lower``/``upper`` are its slide limits, m.
+        torque, angular_velocity: a cylindrical joint's turning limits (N m, rad/s); ``effort``
+            and ``velocity`` are its sliding ones (N, m/s).
     """
 
     name: str
@@ -74,6 +99,24 @@ class Joint:
     effort: float
     velocity: float
     mate: CompiledMate = field(repr=False)
+    flipped: bool = False
+    turn_lower: float | None = None
+    turn_upper: float | None = None
+    torque: float = 0.0
+    angular_velocity: float = 0.0
+
+    def dofs(self) -> list[JointDof]:
+        """The 1-DOF joints this joint exports as (none for a spherical joint)."""
+        if self.type == "spherical":
+            return []
+        if self.type == "cylindrical":
+            turn: DofType = "continuous" if self.turn_lower is None else "revolute"
+            return [JointDof(self.name + SLIDE, "prismatic", self.lower, self.upper, self.effort,
+                             self.velocity),
+                    JointDof(self.name + TURN, turn, self.turn_lower, self.turn_upper,
+                             self.torque, self.angular_velocity)]
+        return [JointDof(self.name, self.type, self.lower, self.upper, self.effort,  # type: ignore[arg-type]
+                         self.velocity)]
 
     @property
     def anchor_m(self) -> np.ndarray:
@@ -89,12 +132,14 @@ class Joint:
 
 @dataclass
 class Articulation:
-    """Links in tree order (root first), joints in the same order as their child links."""
+    """Links in tree order (root first), joints in the same order as their child links;
+    ``wheels``: the wheel joints (by evidence, :mod:`.wheels`), which make the base free."""
 
     name: str
     links: list[Link]
     joints: list[Joint]
     part_link: dict[str, str]
+    wheels: list[str] = field(default_factory=list)
 
     @property
     def root(self) -> Link:
@@ -127,23 +172,35 @@ class Articulation:
         return None if lk.parent_joint is None else self.joint(lk.parent_joint).parent
 
 
+def mate_option(mate: CompiledMate, key: str) -> float:
+    """A numeric option of ``mate``: its value, or the type's default when it is absent or None.
+
+    An explicit value is kept as given (``effort=0`` is refused at compile time by the option's
+    range, never silently replaced: see :mod:`procedura_brep.mates.vocabulary`).
+    """
+    value = mate.options.get(key)
+    if value is None:
+        value = TYPES[mate.type].options[key].default
+    return float(value)
+
+
 def joint_limits(mate: CompiledMate) -> tuple[JointType, float | None, float | None]:
     """(type, lower, upper) in SI units relative to the compiled (home) pose."""
     opts = mate.options
     if mate.type == "spherical":
-        cone = float(opts.get("cone") or 30.0)
+        cone = mate_option(mate, "cone")
         return "spherical", 0.0, float(np.radians(cone))
     lim = opts.get("limits")
-    home = float(opts.get("home") or 0.0)
+    home = mate_option(mate, "home") if mate.type in ("revolute", "prismatic", "cylindrical") else 0.0
     if mate.type == "revolute":
         if lim is None:
             return "continuous", None, None
         return "revolute", float(np.radians(lim[0] - home)), float(np.radians(lim[1] - home))
-    if mate.type == "prismatic":
+    if mate.type in ("prismatic", "cylindrical"):
         if lim is None:
             raise ArticulationError(
-                f"prismatic mate {mate.name!r} has no limits; give limits=(lo, hi) in mm")
-        return "prismatic", (lim[0] - home) / 1000.0, (lim[1] - home) / 1000.0
+                f"{mate.type} mate {mate.name!r} has no limits; give limits=(lo, hi) in mm")
+        return mate.type, (lim[0] - home) / 1000.0, (lim[1] - home) / 1000.0  # type: ignore[return-value]
     raise ArticulationError(f"mate {mate.name!r} of type {mate.type!r} is not kinematic")
 
 
@@ -203,8 +260,16 @@ def articulate(model: CompiledModel) -> Articulation:
         jtype, lo, hi = joint_limits(m)
         joints_by_child[c] = Joint(
             name=m.name, type=jtype, parent=p, child=c, frame=np.asarray(m.world_frame, float),
-            lower=lo, upper=hi, effort=float(m.options.get("effort") or 10.0),
-            velocity=float(m.options.get("velocity") or 3.0), mate=m)
+            lower=lo, upper=hi, effort=mate_option(m, "effort"),
+            velocity=mate_option(m, "velocity"), mate=m)
+        if jtype == "cylindrical":
+            j = joints_by_child[c]
+            alim = m.options.get("angle_limits")
+            h = mate_option(m, "home_angle")
+            if alim is not None:
+                j.turn_lower, j.turn_upper = (float(np.radians(alim[0] - h)),
+                                              float(np.radians(alim[1] - h)))
+            j.torque, j.angular_velocity = mate_option(m, "torque"), mate_option(m, "angular_velocity")
     # walk from the root
     root_frame = np.asarray(model.part(model.parts[0].name).placement, float)
     links = [Link(root_name, members[root_name], root_frame)]
@@ -228,5 +293,23 @@ def articulate(model: CompiledModel) -> Articulation:
         raise ArticulationError(
             f"not joined to the root {root_name!r}: {names}; add a mate from each to a part "
             f"declared before it")
-    log.debug("articulated %s: %d links, %d joints", model.name, len(links), len(joints))
-    return Articulation(model.name, links, joints, part_link)
+    art = Articulation(model.name, links, joints, part_link)
+    _drive_wheels(model, art)
+    log.debug("articulated %s: %d links, %d joints, wheels %s", model.name, len(links),
+              len(joints), art.wheels)
+    return art
+
+
+def _drive_wheels(model: CompiledModel, art: Articulation) -> None:
+    """Find the wheels and flip those that would roll backwards (see :mod:`.wheels`)."""
+    from .wheels import find_wheels, flip, forward, rolling_direction
+    art.wheels = find_wheels(model, {lk.name: lk.parts for lk in art.links}, art.joints, art.subtree)
+    if not art.wheels:
+        return
+    ahead = forward(art.root.frame, art.joint(art.wheels[0]).axis)
+    for name in art.wheels:
+        j = art.joint(name)
+        if float(rolling_direction(j.axis) @ ahead) < 0:
+            j.frame = flip(j.frame)
+            j.flipped = True
+            art.link(j.child).frame = j.frame.copy()

@@ -11,7 +11,8 @@ excluded from collisions (MuJoCo collides convex hulls, which fill holes and bor
 rest-contact check is battery B3).
 
 Actuators: a position servo per limited revolute/prismatic joint and a velocity servo per
-continuous joint. Position gains are scaled from the joint-space inertia so every servo has the
+continuous joint. A cylindrical joint is two joints on one body, both at its origin about/along
+``0 0 1``: ``<mate>__slide`` (slide) then ``<mate>__turn`` (hinge), each with its own servo. Position gains are scaled from the joint-space inertia so every servo has the
 same natural frequency (:data:`SERVO_HZ`); a velocity servo's gain is at least effort / velocity
 (full effort at stall), since a wheel carries the vehicle's load, not just its own inertia.
 Every actuator's force is limited by the mate's effort. A spherical joint (MuJoCo ``ball``,
@@ -48,10 +49,6 @@ SERVO_OMEGA = 2 * np.pi * SERVO_HZ
 MIN_VELOCITY = 1e-9
 #: Damping ratio of every servo.
 SERVO_ZETA = 1.0
-#: A wheel's axis has at most this |z| component (it rolls on a horizontal floor).
-WHEEL_MAX_AXIS_Z = 0.5
-#: A wheel's radius is at least this many times its width along the axis.
-WHEEL_DISC_RATIO = 0.5
 #: Mesh directory of ``model.xml`` relative to the bundle root (shared with the URDF).
 MESHDIR = "urdf/meshes"
 
@@ -90,20 +87,10 @@ def lowest_z(model: CompiledModel, parts: list[str]) -> float:
 
 
 def wheel_joints(model: CompiledModel, art: Articulation) -> list[str]:
-    """Continuous joints with a horizontal axis whose child subtree is disc-like (its radius about
-    the axis is at least :data:`WHEEL_DISC_RATIO` times its length along it). Whether the wheels
-    reach the ground is for battery B4 to find out, not for this test."""
-    out = []
-    for j in art.joints:
-        if j.type != "continuous" or abs(float(j.axis[2])) > WHEEL_MAX_AXIS_Z:
-            continue
-        parts = [p for lk in art.subtree(j.child) for p in art.link(lk).parts]
-        v = np.vstack([part_mesh(model.part(n)).vertices for n in parts]) - j.frame[:3, 3]
-        along = v @ j.axis
-        radial = np.linalg.norm(v - np.outer(along, j.axis), axis=1)
-        if radial.max() >= WHEEL_DISC_RATIO * (along.max() - along.min()):
-            out.append(j.name)
-    return out
+    """The wheel joints, found by evidence in the articulation
+    (:mod:`procedura_brep.articulation.wheels`): continuous, round about the axis, reaching the
+    floor. Their frames already carry one drive sign."""
+    return list(art.wheels)
 
 
 def _geoms(spec, body, model: CompiledModel, name: str, frame: np.ndarray,
@@ -133,6 +120,27 @@ def _inertial(body, mp: MassProps) -> None:
     body.ipos = [float(x) for x in mp.com]
     body.iquat = quat(v)
     body.inertia = [float(x) for x in w]
+
+
+def _dof_joint(spec, body, dof, kp: float) -> None:
+    """A hinge or slide at the body origin about/along its z, with its servo."""
+    import mujoco
+    jtype = mujoco.mjtJoint.mjJNT_SLIDE if dof.type == "prismatic" else mujoco.mjtJoint.mjJNT_HINGE
+    jt = body.add_joint(name=dof.name, type=jtype, axis=[0, 0, 1], pos=[0, 0, 0])
+    act = spec.add_actuator(name=dof.name, target=dof.name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+    if dof.type == "continuous":
+        jt.limited = mujoco.mjtLimited.mjLIMITED_FALSE
+        act.set_to_velocity(kv=float(kp))
+        act.ctrlrange = [-dof.velocity, dof.velocity]
+    else:
+        jt.limited = mujoco.mjtLimited.mjLIMITED_TRUE
+        jt.range = [float(dof.lower), float(dof.upper)]
+        m_jj = kp  # gains hold M_jj for position servos
+        act.set_to_position(kp=float(m_jj * SERVO_OMEGA**2),
+                            kv=float(2 * SERVO_ZETA * m_jj * SERVO_OMEGA))
+        act.ctrlrange = [float(dof.lower), float(dof.upper)]
+    act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+    act.forcerange = [-dof.effort, dof.effort]
 
 
 def _build(model: CompiledModel, art: Articulation, masses: dict[str, MassProps],
@@ -185,25 +193,8 @@ def _build(model: CompiledModel, art: Articulation, masses: dict[str, MassProps]
                 act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
                 act.forcerange = [-j.effort, j.effort]
             continue
-        jtype = mujoco.mjtJoint.mjJNT_SLIDE if j.type == "prismatic" else mujoco.mjtJoint.mjJNT_HINGE
-        jt = body.add_joint(name=j.name, type=jtype, axis=[0, 0, 1], pos=[0, 0, 0])
-        if j.type == "continuous":
-            jt.limited = mujoco.mjtLimited.mjLIMITED_FALSE
-            act = spec.add_actuator(name=j.name, target=j.name,
-                                    trntype=mujoco.mjtTrn.mjTRN_JOINT)
-            act.set_to_velocity(kv=float(kp))
-            act.ctrlrange = [-j.velocity, j.velocity]
-        else:
-            jt.limited = mujoco.mjtLimited.mjLIMITED_TRUE
-            jt.range = [float(j.lower), float(j.upper)]
-            act = spec.add_actuator(name=j.name, target=j.name,
-                                    trntype=mujoco.mjtTrn.mjTRN_JOINT)
-            m_jj = kp  # gains hold M_jj for position servos
-            act.set_to_position(kp=float(m_jj * SERVO_OMEGA**2),
-                                kv=float(2 * SERVO_ZETA * m_jj * SERVO_OMEGA))
-            act.ctrlrange = [float(j.lower), float(j.upper)]
-        act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
-        act.forcerange = [-j.effort, j.effort]
+        for dof in j.dofs():  # one joint; a cylindrical joint's slide then turn, same axis
+            _dof_joint(spec, body, dof, (gains or {}).get(dof.name, 1.0))
     for a, b in excluded:
         spec.add_exclude(bodyname1=a, bodyname2=b)
     spec.assets = dict(assets)
@@ -229,16 +220,19 @@ def build_mjcf(model: CompiledModel, *, art: Articulation | None = None,
     mujoco.mj_fullM(m, d, mass_matrix)
     gains: dict[str, float] = {}
     for j in art.joints:
-        jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j.name)
-        dof = int(m.jnt_dofadr[jid])
-        mjj = float(mass_matrix[dof, dof])
-        if j.type == "continuous":  # velocity servo: stall torque = effort at full speed
-            gains[j.name] = max(2 * SERVO_ZETA * mjj * SERVO_OMEGA,
-                              j.effort / max(j.velocity, MIN_VELOCITY))
-        elif j.type == "spherical":  # the largest of its three diagonal inertias
+        if j.type == "spherical":  # the largest of its three diagonal inertias
+            jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j.name)
+            dof = int(m.jnt_dofadr[jid])
             gains[j.name] = float(np.max(np.diag(mass_matrix)[dof:dof + 3]))
-        else:
-            gains[j.name] = mjj
+            continue
+        for jd in j.dofs():
+            dof = int(m.jnt_dofadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, jd.name)])
+            mjj = float(mass_matrix[dof, dof])
+            if jd.type == "continuous":  # velocity servo: stall torque = effort at full speed
+                gains[jd.name] = max(2 * SERVO_ZETA * mjj * SERVO_OMEGA,
+                                     jd.effort / max(jd.velocity, MIN_VELOCITY))
+            else:
+                gains[jd.name] = mjj
     excluded: set[tuple[str, str]] = set()
     for c in d.contact[: d.ncon]:
         b1, b2 = int(m.geom_bodyid[c.geom1]), int(m.geom_bodyid[c.geom2])

@@ -12,6 +12,11 @@
   (``autolimits`` makes it limited). URDF parsers other than MuJoCo's do not know the type:
   use the strict profile for them.
 
+A cylindrical joint (slide along and turn about one axis) is, in both profiles, a prismatic
+``<joint>__slide`` from the parent to a tiny-mass carrier link ``<joint>__slide`` and a revolute
+(or continuous) ``<joint>__turn`` from the carrier to the child, both at the anchor, axis
+``0 0 1``.
+
 Link frames follow :mod:`procedura_brep.articulation.tree` (a child link's origin is its joint
 anchor, its +Z the joint axis), so every joint axis is ``0 0 1``. Units: metres, kg, radians.
 Mesh paths are relative (``meshes/<part>.stl``); stems are unique (part names are unique, and
@@ -115,14 +120,17 @@ def _tiny_link(robot: ET.Element, name: str) -> None:
 
 
 def _joint(robot: ET.Element, name: str, jtype: str, parent: str, child: str, org: np.ndarray,
-           axis: str, j: Joint, lo: float | None, hi: float | None) -> None:
+           axis: str, j: Joint, lo: float | None, hi: float | None,
+           limits: tuple[float, float] | None = None) -> None:
+    """One ``<joint>``; ``limits`` = (effort, velocity), default the joint's own."""
     el = ET.SubElement(robot, "joint", name=name, type=jtype)
     origin(el, org)
     ET.SubElement(el, "parent", link=parent)
     ET.SubElement(el, "child", link=child)
     if jtype != "spherical":
         ET.SubElement(el, "axis", xyz=axis)
-    attrs = {"effort": fmt(j.effort), "velocity": fmt(j.velocity)}
+    effort, velocity = limits or (j.effort, j.velocity)
+    attrs = {"effort": fmt(effort), "velocity": fmt(velocity)}
     if lo is not None and hi is not None:
         attrs = {"lower": fmt(lo), "upper": fmt(hi), **attrs}
     ET.SubElement(el, "limit", **attrs)
@@ -188,6 +196,15 @@ def urdf_text(model: CompiledModel, *, profile: Profile = "strict",
             # MuJoCo's URDF importer maps "spherical" to a ball joint and reads <limit lower upper>
             # into its range, whose ball convention is "0 cone" (autolimits makes it limited)
             _joint(robot, j.name, "spherical", j.parent, j.child, org, "0 0 1", j, 0.0, j.upper)
+        elif j.type == "cylindrical":
+            # both profiles: slide then turn on one axis, through a tiny-mass carrier link
+            # (a URDF joint has one DOF, and MuJoCo's importer keeps one joint per link)
+            slide, turn = j.dofs()
+            _tiny_link(robot, slide.name)
+            _joint(robot, slide.name, "prismatic", j.parent, slide.name, org, "0 0 1", j,
+                   slide.lower, slide.upper, (slide.effort, slide.velocity))
+            _joint(robot, turn.name, turn.type, slide.name, j.child, np.eye(4), "0 0 1", j,
+                   turn.lower, turn.upper, (turn.effort, turn.velocity))
         else:
             _joint(robot, j.name, j.type, j.parent, j.child, org, "0 0 1", j, j.lower, j.upper)
     ET.indent(robot)

@@ -8,7 +8,10 @@ Layout (flat links, as UsdPhysics expects for articulations)::
       /<link>                     Xform at the link's world frame, RigidBodyAPI + MassAPI
         /<part>                   Mesh (exact visual, link-local), bound to its material
         /<part>__collision        Xform holding convex pieces (CollisionAPI + MeshCollisionAPI)
-      /joints/<mate>              RevoluteJoint / PrismaticJoint / SphericalJoint
+      /joints/<mate>              RevoluteJoint / PrismaticJoint / SphericalJoint, or for a
+                                  cylindrical mate a generic (D6) Joint free only along and
+                                  about X (the other four DOF locked by LimitAPI low > high),
+                                  with transX and rotX drives
       /joints/<root link>__world  FixedJoint (body1 = root link, body0 empty = world), only when
                                   the assembly has no wheels (:func:`.mjcf.wheel_joints`): the
                                   same fixed base as ``model.xml``; the ArticulationRootAPI on
@@ -131,6 +134,8 @@ def usd_stage(model: CompiledModel, *, art: Articulation | None = None,
             cone = float(np.degrees(j.upper))
             jp.CreateConeAngle0LimitAttr(cone)
             jp.CreateConeAngle1LimitAttr(cone)
+        elif j.type == "cylindrical":
+            jp = _cylindrical(stage, jpath, j)
         elif j.type == "prismatic":
             jp = UsdPhysics.PrismaticJoint.Define(stage, jpath)
             jp.CreateAxisAttr("X")
@@ -149,7 +154,18 @@ def usd_stage(model: CompiledModel, *, art: Articulation | None = None,
             local = np.linalg.inv(art.link(body).frame) @ j.frame
             setpos(Gf.Vec3f(*[float(c) for c in local[:3, 3] / 1000.0]))
             setrot(_quatf(local[:3, :3] @ Z_TO_X))
-        if j.type != "spherical":
+        if j.type == "cylindrical":
+            for dof, kind in zip(j.dofs(), ("transX", "rotX")):
+                drive = UsdPhysics.DriveAPI.Apply(jp.GetPrim(), kind)
+                drive.CreateTypeAttr("force")
+                drive.CreateMaxForceAttr(float(dof.effort))
+                drive.CreateDampingAttr(float(dof.effort * DRIVE_DAMPING_PER_EFFORT))
+                if dof.type == "continuous":
+                    drive.CreateTargetVelocityAttr(0.0)
+                else:
+                    drive.CreateStiffnessAttr(float(dof.effort * DRIVE_STIFFNESS_PER_EFFORT))
+                    drive.CreateTargetPositionAttr(0.0)
+        elif j.type != "spherical":
             kind = "linear" if j.type == "prismatic" else "angular"
             drive = UsdPhysics.DriveAPI.Apply(jp.GetPrim(), kind)
             drive.CreateTypeAttr("force")
@@ -162,6 +178,30 @@ def usd_stage(model: CompiledModel, *, art: Articulation | None = None,
                 drive.CreateDampingAttr(float(j.effort * DRIVE_DAMPING_PER_EFFORT))
                 drive.CreateTargetPositionAttr(0.0)
     return stage
+
+
+#: The four DOF a cylindrical joint locks (a limit with low > high locks a DOF in UsdPhysics).
+LOCKED_BY_CYLINDRICAL = ("transY", "transZ", "rotY", "rotZ")
+
+
+def _cylindrical(stage, path: str, j):
+    """A generic (D6) PhysicsJoint free only along and about its X (the mate's Z): transY/Z and
+    rotY/Z locked, transX limited in metres, rotX limited in degrees (free when the turn is)."""
+    from pxr import UsdPhysics
+    jp = UsdPhysics.Joint.Define(stage, path)
+    prim = jp.GetPrim()
+    for dof in LOCKED_BY_CYLINDRICAL:
+        lim = UsdPhysics.LimitAPI.Apply(prim, dof)
+        lim.CreateLowAttr(1.0)
+        lim.CreateHighAttr(-1.0)
+    lim = UsdPhysics.LimitAPI.Apply(prim, "transX")
+    lim.CreateLowAttr(float(j.lower))
+    lim.CreateHighAttr(float(j.upper))
+    if j.turn_lower is not None:
+        lim = UsdPhysics.LimitAPI.Apply(prim, "rotX")
+        lim.CreateLowAttr(float(np.degrees(j.turn_lower)))
+        lim.CreateHighAttr(float(np.degrees(j.turn_upper)))
+    return jp
 
 
 def usda_text(model: CompiledModel, *, art: Articulation | None = None,

@@ -136,6 +136,14 @@ def prismatic(d: float, fit: Fit, o: dict[str, Any]) -> Halves:
     return bar, slot
 
 
+def cylindrical(d: float, fit: Fit, o: dict[str, Any]) -> Halves:
+    """A round shaft of diameter d (``fit.shaft``) in a bore deep enough for the travel."""
+    depth = o.get("depth") or 2.0 * d
+    lo = min(0.0, o["limits"][0])
+    return (_pin(fit.shaft, depth),
+            Cylinder(fit.hole / 2, depth - lo + _relief(d), align=TOP))
+
+
 def spherical(d: float, fit: Fit, o: dict[str, Any]) -> Halves:
     return Sphere(fit.shaft / 2), Sphere(fit.hole / 2)
 
@@ -144,15 +152,38 @@ MACROS: dict[str, Callable[[float, Fit, dict[str, Any]], Halves]] = {
     "bolt_pattern": bolt_pattern, "peg_socket": peg, "seat_face": seat_face, "flange": flange,
     "tab_slot": tab_slot, "press_fit": press_fit, "lip_rabbet": lip_rabbet,
     "snap_tab": snap_tab, "key": key, "revolute": revolute, "prismatic": prismatic,
-    "spherical": spherical,
+    "spherical": spherical, "cylindrical": cylindrical,
 }
 
 
+#: Half a turn about the mate frame's X: the mating plane's mirror (z -> -z, y -> -y).
+FLIP = Rot(180, 0, 0)
+
+
 def build(mtype: str, d: float, fit: Fit, options: dict[str, Any]) -> Halves:
-    """(male, female) for a mate of type ``mtype``, in mate-frame coordinates, or (None, None)."""
+    """(male, female) for a mate of type ``mtype``, in mate-frame coordinates, or (None, None).
+
+    With ``male="parent"`` both halves are turned half a turn about the frame's X axis, so the
+    male stands up into the child (+Z) and the female is cut upwards into the child; every
+    macro is symmetric under that turn apart from the side it points to.
+    """
     if not options.get("features", True):
         return None, None
-    return MACROS[mtype](d, fit, options)
+    male, female = MACROS[mtype](d, fit, options)
+    if male_side(options) == "parent":
+        male = None if male is None else FLIP * male
+        female = None if female is None else FLIP * female
+    return male, female
 
 
-__all__ = ["MACROS", "build"]
+def male_side(options: dict[str, Any]) -> str:
+    """``"child"`` or ``"parent"``: which part the male half is added to."""
+    return str(options.get("male") or "child")
+
+
+def sides(child: str, parent: str, options: dict[str, Any]) -> tuple[str, str]:
+    """(the part that gets the male half, the part the female half is cut from)."""
+    return (parent, child) if male_side(options) == "parent" else (child, parent)
+
+
+__all__ = ["MACROS", "build", "male_side", "sides"]

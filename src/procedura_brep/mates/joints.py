@@ -13,6 +13,10 @@ moved along exactly its free DOF:
   build123d needs to avoid a NaN location). ``LinearJoint`` keeps the world orientation of the
   parent, so the child's ``RigidJoint`` carries the frame's rotation.
 * ``spherical`` -> ``BallJoint`` at the frame, rotations X then Y then Z in degrees.
+* ``cylindrical`` -> a ``LinearJoint`` on the parent driving a massless carrier, and a
+  ``RevoluteJoint`` on the carrier driving the child (build123d's own ``CylindricalJoint``
+  reads its angle reference in world coordinates against a part-local axis, which gives wrong
+  poses on a rotated parent). :meth:`KinematicJoint.move` takes ``(z mm, angle deg)``.
 
 Runs only where build123d is imported (the sandbox child and tests).
 """
@@ -39,6 +43,8 @@ class KinematicJoint:
     limits: tuple[float, float] | None = None
     cone: float | None = None
     offset_deg: float = 0.0
+    turn: "KinematicJoint | None" = None
+    angle_limits: tuple[float, float] | None = None
 
     def move(self, value: float | tuple[float, float, float]) -> None:
         """Move the child to joint value ``value`` (deg, mm, or (rx, ry, rz) deg).
@@ -47,8 +53,13 @@ class KinematicJoint:
             RangeError: the value is outside the mate's limits (or cone); the message names the
                 mate, the value and the range.
         """
-        check_value(self.name, self.mtype, value, limits=self.limits, cone=self.cone)
-        if self.mtype == "revolute":
+        check_value(self.name, self.mtype, value, limits=self.limits, cone=self.cone,
+                    angle_limits=self.angle_limits)
+        if self.mtype == "cylindrical":
+            z, ang = (float(v) for v in value)  # type: ignore[union-attr]
+            self.joint.connect_to(self.child, position=z)
+            self.turn.move(ang)  # type: ignore[union-attr]
+        elif self.mtype == "revolute":
             self.joint.connect_to(self.child, angle=float(value) - self.offset_deg)  # type: ignore[arg-type]
         elif self.mtype == "prismatic":
             self.joint.connect_to(self.child, position=float(value))  # type: ignore[arg-type]
@@ -72,11 +83,26 @@ def rigid_place(parent: Any, child: Any, f_parent: Location, f_child: Location, 
 
 
 def kinematic(mtype: str, parent: Any, child: Any, f_parent: Location, f_child: Location, label: str,
-              *, limits: tuple[float, float] | None = None, cone: float | None = None) -> KinematicJoint:
+              *, limits: tuple[float, float] | None = None, cone: float | None = None,
+              angle_limits: tuple[float, float] | None = None,
+              home: tuple[float, float] = (0.0, 0.0)) -> KinematicJoint:
     """The build123d joint of a kinematic mate, attached to ``parent`` and driving ``child``.
 
-    ``parent`` must already sit at its world location; frames are part-local.
+    ``parent`` must already sit at its world location; frames are part-local. A cylindrical
+    mate's carrier is placed at the slide value ``home[0]``.
     """
+    if mtype == "cylindrical":
+        if limits is None:
+            raise ValueError("a cylindrical joint needs limits")
+        from build123d import Box
+        carrier = Box(1, 1, 1)  # massless stand-in for the slide's moving side; never exported
+        slide = kinematic("prismatic", parent, carrier, f_parent, Location(), f"{label}@slide",
+                          limits=limits)
+        slide.joint.connect_to(slide.child, position=float(home[0]))
+        turn = kinematic("revolute", carrier, child, Location(), f_child, f"{label}@turn",
+                         limits=angle_limits)
+        return KinematicJoint(mtype, slide.joint, slide.child, label, limits, None, 0.0, turn,
+                              angle_limits)
     world = parent.location * f_parent  # build123d joints take world locations at creation
     origin = world.position
     z_dir = (world * Location((0, 0, 1))).position - origin

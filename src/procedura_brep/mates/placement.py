@@ -47,13 +47,24 @@ def rigid_inverse(m: np.ndarray) -> np.ndarray:
 
 
 def check_value(mate: str, mtype: str, value: float | Sequence[float],
-                *, limits: tuple[float, float] | None = None, cone: float | None = None) -> None:
+                *, limits: tuple[float, float] | None = None, cone: float | None = None,
+                angle_limits: tuple[float, float] | None = None) -> None:
     """Refuse a joint value outside its range, naming the mate, the value and the range.
 
     Raises:
         RangeError: revolute angle (deg) or prismatic position (mm) outside ``limits``, or a
-            spherical tilt (deg) beyond ``cone``.
+            spherical tilt (deg) beyond ``cone``, or a cylindrical (z mm, angle deg) outside
+            ``limits`` / ``angle_limits``.
     """
+    if mtype == "cylindrical":
+        z, ang = (float(v) for v in value)  # type: ignore[union-attr]
+        if limits is not None and not limits[0] <= z <= limits[1]:
+            raise RangeError(f"{mate} (cylindrical) position", z, limits[0], limits[1], unit="mm")
+        if angle_limits is not None:
+            lo, hi = angle_limits
+            if not lo <= ang <= hi:
+                raise RangeError(f"{mate} (cylindrical) angle", ang, lo, hi, unit="deg")
+        return
     if mtype in ("revolute", "prismatic"):
         v = float(value)  # type: ignore[arg-type]
         if limits is not None and not (limits[0] <= v <= limits[1]):
@@ -78,14 +89,29 @@ def spherical_tilt_deg(m: np.ndarray) -> float:
 
 
 def delta(mtype: str, value: float | Sequence[float] | None = None) -> np.ndarray:
-    """``Delta`` for a mate type at joint value ``value`` (None = home/identity)."""
-    if value is None or mtype not in ("revolute", "prismatic", "spherical"):
+    """``Delta`` for a mate type at joint value ``value`` (None = home/identity); a cylindrical
+    value is ``(z mm, angle deg)``: ``trans(z) @ rot_z(angle)``."""
+    if value is None or mtype not in ("revolute", "prismatic", "spherical", "cylindrical"):
         return np.eye(4)
+    if mtype == "cylindrical":
+        z, ang = (float(v) for v in value)  # type: ignore[union-attr]
+        return trans(z=z) @ rot_z(ang)
     if mtype == "revolute":
         return rot_z(float(value))  # type: ignore[arg-type]
     if mtype == "prismatic":
         return trans(z=float(value))  # type: ignore[arg-type]
     return spherical_delta(value)  # type: ignore[arg-type]
+
+
+def home_value(mtype: str, options: dict) -> float | tuple[float, ...] | None:
+    """The joint value at which a kinematic mate places its child (None for static mates)."""
+    if mtype == "cylindrical":
+        return (float(options.get("home") or 0.0), float(options.get("home_angle") or 0.0))
+    if mtype == "spherical":
+        return (0.0, 0.0, 0.0)
+    if mtype in ("revolute", "prismatic"):
+        return float(options.get("home") or 0.0)
+    return None
 
 
 def solve(parent_world: np.ndarray, f_parent: np.ndarray, f_child: np.ndarray,

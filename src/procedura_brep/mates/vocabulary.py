@@ -1,4 +1,4 @@
-"""The closed mate vocabulary: nine static types and three kinematic ones.
+"""The closed mate vocabulary: nine static types and four kinematic ones.
 
 Every type fixes its degree-of-freedom signature, the fit classes it accepts, and its options
 (with defaults and allowed ranges). This module is pure data plus validation; the geometry of
@@ -26,13 +26,31 @@ MateKind = Literal["static", "kinematic"]
 
 @dataclass(frozen=True)
 class Option:
-    """One type-specific option: default and allowed closed range (None = unbounded)."""
+    """One type-specific option: default and allowed range (None = unbounded).
+
+    The range is closed, ``[low, high]``, unless ``open_low``: then ``low`` itself is refused,
+    ``(low, high]`` (an effort or a speed limit of 0 would be a joint that cannot move: a
+    kinematic mate always moves; use a static mate for a part that must not).
+    """
 
     default: Any
     low: float | None = None
     high: float | None = None
     integer: bool = False
     doc: str = ""
+    open_low: bool = False
+    choices: tuple[str, ...] = ()
+
+    def admits(self, value: float) -> bool:
+        """Whether ``value`` lies in the option's range."""
+        if self.low is not None and (value < self.low or (self.open_low and value == self.low)):
+            return False
+        return self.high is None or value <= self.high
+
+    def range_text(self) -> str:
+        lo = "-inf" if self.low is None else f"{self.low:g}"
+        hi = "inf" if self.high is None else f"{self.high:g}"
+        return f"{'(' if self.open_low else '['}{lo}, {hi}]"
 
 
 @dataclass(frozen=True)
@@ -70,6 +88,12 @@ class MateType:
 
 
 _FEAT = Option(True, doc="build the male/female features (False: frames only)")
+#: Which part carries the male half (``"parent"``: a pulley on a shaft, a nut on a rod, a collar
+#: on a column: the male is added to the parent, the female cut from the child, so the shaft is
+#: not drilled).
+MALE_SIDES = ("child", "parent")
+_MALE = Option("child", choices=MALE_SIDES,
+               doc="which part carries the male half: child (default) or parent")
 _DEPTH = Option(None, 0.1, 10000.0, doc="engagement depth along -Z, mm (default from nominal)")
 
 STATIC_DOF = Dof()
@@ -80,60 +104,74 @@ TYPES: dict[str, MateType] = {t.name: t for t in [
               "pcd": Option(None, 1.0, 5000.0, doc="pitch circle diameter, mm (default 4 d)"),
               "length": Option(None, 0.1, 5000.0, doc="stud length below the frame, mm (default 1.5 d)"),
               "angle0": Option(0.0, -360.0, 360.0, doc="angle of the first bolt from +X, deg"),
-              "features": _FEAT},
+              "features": _FEAT, "male": _MALE},
              table="iso273",
              doc="studs of M-size d on the child through ISO 273 clearance holes in the parent"),
     MateType("peg_socket", "static", STATIC_DOF, ("clearance", "location", "press"), "location",
-             {"depth": _DEPTH, "features": _FEAT},
+             {"depth": _DEPTH, "features": _FEAT, "male": _MALE},
              doc="cylindrical peg of diameter d on the child in a blind socket in the parent"),
     MateType("seat_face", "static", STATIC_DOF, ("clearance", "location"), "location",
-             {"depth": _DEPTH, "features": _FEAT},
+             {"depth": _DEPTH, "features": _FEAT, "male": _MALE},
              doc="round seating pad of diameter d on the child in a spot-faced counterbore"),
     MateType("flange", "static", STATIC_DOF, ("clearance", "location"), "location",
              {"count": Option(6, 3, 36, integer=True, doc="number of flange studs"),
               "pcd": Option(None, 1.0, 5000.0, doc="stud pitch circle, mm (default 1.5 d)"),
               "bolt": Option(None, 1.6, 64.0, doc="stud M-size, mm (default from d)"),
-              "features": _FEAT},
+              "features": _FEAT, "male": _MALE},
              doc="pilot spigot of diameter d plus a ring of studs, into a pilot recess and holes"),
     MateType("tab_slot", "static", STATIC_DOF, ("clearance", "location", "press"), "location",
              {"thickness": Option(None, 0.1, 1000.0, doc="tab thickness, mm (default 0.25 d)"),
-              "depth": _DEPTH, "features": _FEAT},
+              "depth": _DEPTH, "features": _FEAT, "male": _MALE},
              doc="rectangular tab of width d (along frame X) in a matching slot"),
     MateType("press_fit", "static", STATIC_DOF, ("press", "location"), "press",
-             {"depth": _DEPTH, "features": _FEAT},
+             {"depth": _DEPTH, "features": _FEAT, "male": _MALE},
              doc="pin of diameter d pressed into an interference bore"),
     MateType("lip_rabbet", "static", STATIC_DOF, ("clearance", "location"), "location",
              {"wall": Option(None, 0.1, 1000.0, doc="lip wall thickness, mm (default 0.06 d)"),
-              "depth": _DEPTH, "features": _FEAT},
+              "depth": _DEPTH, "features": _FEAT, "male": _MALE},
              doc="annular lip of outer diameter d on the child in an annular groove"),
     MateType("snap_tab", "static", STATIC_DOF, ("snap",), "snap",
-             {"depth": _DEPTH, "features": _FEAT},
+             {"depth": _DEPTH, "features": _FEAT, "male": _MALE},
              doc="cantilever tab of width d with a hook, preloaded into a window by the snap fit"),
     MateType("key", "static", STATIC_DOF, ("clearance", "location", "press"), "location",
              {"length": Option(None, 0.1, 5000.0, doc="key length along frame Y, mm (default 3 d)"),
-              "features": _FEAT},
+              "features": _FEAT, "male": _MALE},
              doc="square key of width d, half in the child, half in a keyway in the parent"),
     MateType("revolute", "kinematic", Dof(rotation=("z",)), ("clearance", "location"), "clearance",
              {"limits": Option(None, -360.0, 360.0, doc="(lo, hi) deg, or None for continuous"),
               "home": Option(0.0, -360.0, 360.0, doc="angle at which the child is placed, deg"),
-              "effort": Option(10.0, 0.0, 1e6, doc="max torque, N m"),
-              "velocity": Option(3.0, 0.0, 1e4, doc="max speed, rad/s"),
-              "depth": _DEPTH, "features": _FEAT},
+              "effort": Option(10.0, 0.0, 1e6, open_low=True, doc="max torque, N m (> 0)"),
+              "velocity": Option(3.0, 0.0, 1e4, open_low=True, doc="max speed, rad/s (> 0)"),
+              "depth": _DEPTH, "features": _FEAT, "male": _MALE},
              doc="1 rotational DOF about frame Z: a pin of diameter d in a bore"),
     MateType("prismatic", "kinematic", Dof(translation=("z",)), ("clearance", "location"), "clearance",
              {"limits": Option(None, -10000.0, 10000.0, doc="(lo, hi) mm along frame Z, required"),
               "home": Option(0.0, -10000.0, 10000.0, doc="position at which the child is placed, mm"),
-              "effort": Option(100.0, 0.0, 1e6, doc="max force, N"),
-              "velocity": Option(0.1, 0.0, 1e3, doc="max speed, m/s"),
-              "depth": _DEPTH, "features": _FEAT},
+              "effort": Option(100.0, 0.0, 1e6, open_low=True, doc="max force, N (> 0)"),
+              "velocity": Option(0.1, 0.0, 1e3, open_low=True, doc="max speed, m/s (> 0)"),
+              "depth": _DEPTH, "features": _FEAT, "male": _MALE},
              doc="1 translational DOF along frame Z: a square guide bar of width d in a slot"),
     MateType("spherical", "kinematic", Dof(rotation=("x", "y", "z")), ("clearance", "location"),
              "clearance",
              {"cone": Option(30.0, 0.1, 180.0, doc="cone half-angle limit, deg"),
-              "effort": Option(10.0, 0.0, 1e6, doc="max torque, N m"),
-              "velocity": Option(3.0, 0.0, 1e4, doc="max speed, rad/s"),
-              "features": _FEAT},
+              "effort": Option(10.0, 0.0, 1e6, open_low=True, doc="max torque, N m (> 0)"),
+              "velocity": Option(3.0, 0.0, 1e4, open_low=True, doc="max speed, rad/s (> 0)"),
+              "features": _FEAT, "male": _MALE},
              doc="3 rotational DOF about the frame origin: a ball of diameter d in a socket"),
+    MateType("cylindrical", "kinematic", Dof(translation=("z",), rotation=("z",)),
+             ("clearance", "location"), "clearance",
+             {"limits": Option(None, -10000.0, 10000.0, doc="(lo, hi) mm along frame Z, required"),
+              "angle_limits": Option(None, -360.0, 360.0,
+                                     doc="(lo, hi) deg about frame Z, or None for a free turn"),
+              "home": Option(0.0, -10000.0, 10000.0, doc="position at which the child is placed, mm"),
+              "home_angle": Option(0.0, -360.0, 360.0, doc="angle at which the child is placed, deg"),
+              "effort": Option(100.0, 0.0, 1e6, open_low=True, doc="max force along the axis, N (> 0)"),
+              "torque": Option(10.0, 0.0, 1e6, open_low=True, doc="max torque about the axis, N m (> 0)"),
+              "velocity": Option(0.1, 0.0, 1e3, open_low=True, doc="max sliding speed, m/s (> 0)"),
+              "angular_velocity": Option(3.0, 0.0, 1e4, open_low=True, doc="max turning speed, rad/s (> 0)"),
+              "depth": _DEPTH, "features": _FEAT, "male": _MALE},
+             doc="slide along and turn about frame Z (2 DOF): a round shaft of diameter d in a "
+                 "bore deep enough for the travel (a collar on a column: male=\"parent\")"),
 ]}
 
 STATIC_TYPES = tuple(n for n, t in TYPES.items() if t.kind == "static")
@@ -160,38 +198,48 @@ def check_options(mate: str, mtype: MateType, fit: str, options: dict[str, Any])
     out: dict[str, Any] = {}
     for key, opt in mtype.options.items():
         value = options.get(key, opt.default)
-        if key == "limits":
-            value = _check_limits(mate, mtype, value)
+        if key in ("limits", "angle_limits"):
+            value = _check_limits(mate, mtype, value, key)
         elif key == "features":
             value = bool(value)
+        elif opt.choices:
+            if not isinstance(value, str) or value not in opt.choices:
+                raise MateError(mate, f"option {key} = {value!r} must be one of: "
+                                      f"{', '.join(opt.choices)}")
         elif value is not None:
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise MateError(mate, f"option {key} must be a finite number, got {value!r}")
             if opt.integer and int(value) != value:
                 raise MateError(mate, f"option {key} must be a whole number, got {value!r}")
-            if (opt.low is not None and value < opt.low) or (opt.high is not None and value > opt.high):
-                raise MateError(mate, f"option {key} = {value:g} is outside [{opt.low:g}, {opt.high:g}]")
+            if not opt.admits(value):
+                raise MateError(mate, f"option {key} = {value:g} is outside {opt.range_text()}")
             value = int(value) if opt.integer else float(value)
         out[key] = value
     if "home" in out and out.get("limits") is not None:
         lo, hi = out["limits"]
         if not lo <= out["home"] <= hi:
             raise MateError(mate, f"home = {out['home']:g} is outside its limits [{lo:g}, {hi:g}]")
+    if "home_angle" in out and out.get("angle_limits") is not None:
+        lo, hi = out["angle_limits"]
+        if not lo <= out["home_angle"] <= hi:
+            raise MateError(mate, f"home_angle = {out['home_angle']:g} is outside its angle_limits "
+                                  f"[{lo:g}, {hi:g}]")
     return out
 
 
-def _check_limits(mate: str, mtype: MateType, value: Any) -> tuple[float, float] | None:
+def _check_limits(mate: str, mtype: MateType, value: Any, key: str = "limits"
+                  ) -> tuple[float, float] | None:
     if value is None:
-        if mtype.name == "prismatic":
-            raise MateError(mate, "a prismatic mate needs limits=(lo, hi) in mm")
+        if key == "limits" and mtype.name in ("prismatic", "cylindrical"):
+            raise MateError(mate, f"a {mtype.name} mate needs limits=(lo, hi) in mm")
         return None
     try:
         lo, hi = (float(v) for v in value)
     except (TypeError, ValueError):
-        raise MateError(mate, f"limits must be (lo, hi), got {value!r}") from None
-    opt = mtype.options["limits"]
+        raise MateError(mate, f"{key} must be (lo, hi), got {value!r}") from None
+    opt = mtype.options[key]
     if not (lo < hi):
-        raise MateError(mate, f"limits ({lo:g}, {hi:g}) must have lo < hi")
+        raise MateError(mate, f"{key} ({lo:g}, {hi:g}) must have lo < hi")
     if lo < opt.low or hi > opt.high:
-        raise MateError(mate, f"limits ({lo:g}, {hi:g}) are outside [{opt.low:g}, {opt.high:g}]")
+        raise MateError(mate, f"{key} ({lo:g}, {hi:g}) are outside [{opt.low:g}, {opt.high:g}]")
     return (lo, hi)

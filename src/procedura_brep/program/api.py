@@ -129,7 +129,8 @@ def mate(child: str, parent: str, type: str, *, nominal: str, fit: str | None = 
         fit: ``clearance`` | ``location`` | ``press`` | ``snap`` (default depends on the type).
         name: the mate's stable id (default ``<child part>_<child frame>``).
         **options: type-specific: ``count``, ``pcd``, ``depth``, ``limits=(lo, hi)``, ``home``,
-            ``cone``, ``effort``, ``velocity``, ``features=False`` ...
+            ``cone``, ``effort``, ``velocity``, ``features=False``, ``male="parent"`` (the male
+            half on the parent: a pulley on a shaft, so the shaft is not cut) ...
 
     Example::
 

@@ -327,24 +327,27 @@ def _resolve_mates(b: _Build, reg: registry.Registry, params: dict[str, Any]) ->
 
 def _apply_features(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]],
                     cached: set[str]) -> None:
-    """Add each mate's male half to its child and cut its female half from its parent.
+    """Add each mate's male half to its child and cut its female half from its parent (the
+    other way round with ``male="parent"``).
 
     Parts in ``cached`` already hold their final solid (features included) and are skipped.
     """
     from ..mates import features
     for m in mates:
         decl, mtype = m["decl"], m["type"]
-        todo_child = decl.child in b.solids and decl.child not in cached
-        todo_parent = decl.parent in b.solids and decl.parent not in cached
-        if not (todo_child or todo_parent):
+        to_male, to_female = features.sides(decl.child, decl.parent, m["options"])  # male= option
+        frame_of = {decl.child: decl.child_frame, decl.parent: decl.parent_frame}
+        todo_male = to_male in b.solids and to_male not in cached
+        todo_female = to_female in b.solids and to_female not in cached
+        if not (todo_male or todo_female):
             continue
         t = time.perf_counter()
         try:
             male, female = features.build(mtype.name, m["d"], m["fit"], m["options"])
-            if male is not None and todo_child:
-                b.solids[decl.child] = b.solids[decl.child] + (reg.frames[decl.child][decl.child_frame] * male)
-            if female is not None and todo_parent:
-                b.solids[decl.parent] = b.solids[decl.parent] - (reg.frames[decl.parent][decl.parent_frame] * female)
+            if male is not None and todo_male:
+                b.solids[to_male] = b.solids[to_male] + (reg.frames[to_male][frame_of[to_male]] * male)
+            if female is not None and todo_female:
+                b.solids[to_female] = b.solids[to_female] - (reg.frames[to_female][frame_of[to_female]] * female)
         except Exception as exc:  # noqa: BLE001 - OCCT failures become findings
             b.fail("mate-feature", f"mate {decl.name}: building its {mtype.name} features failed: "
                                    f"{_exc_text(exc)}", mate=decl.name, line=decl.line)
@@ -377,7 +380,7 @@ def _place(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]]) -> No
     jointed = {names[0]}
     for m in mates:
         decl, mtype, opts = m["decl"], m["type"], m["options"]
-        home = opts.get("home") if mtype.kind == "kinematic" else None
+        home = pl.home_value(mtype.name, opts) if mtype.kind == "kinematic" else None
         D = pl.delta(mtype.name, home)
         if decl.parent not in b.world:
             b.fail("plan-order", f"mate {decl.name}: parent {decl.parent!r} is not placed yet; declare "
@@ -422,9 +425,12 @@ def _place_by_joint(carriers: dict[str, Any], reg: registry.Registry, m: dict[st
     fc = reg.frames[decl.child][decl.child_frame]
     try:
         if mtype.kind == "kinematic":
+            home = pl.home_value(mtype.name, opts)
             joint = kinematic(mtype.name, parent, child, fp, fc, decl.name,
-                              limits=opts.get("limits"), cone=opts.get("cone"))
-            joint.move((0.0, 0.0, 0.0) if mtype.name == "spherical" else opts.get("home", 0.0))
+                              limits=opts.get("limits"), cone=opts.get("cone"),
+                              angle_limits=opts.get("angle_limits"),
+                              home=home if mtype.name == "cylindrical" else (0.0, 0.0))
+            joint.move(home)
         else:
             rigid_place(parent, child, fp, fc, decl.name)
     except ValueError as exc:

@@ -109,31 +109,38 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
                 if not worst_traj:
                     worst_traj = _ball_traj(m, j.name, *hit.value)
             continue
-        r = sweep_joint(m, art, j.name)
-        hit = scene.sweep(j, extra=(r["qmin"], r["qmax"]))
+        reached = {d.name: sweep_joint(m, art, d.name) for d in j.dofs()}
+        r = reached[j.name] if j.name in reached else None
+        hit = scene.sweep(j, extra=(r["qmin"], r["qmax"]) if r else ())
         pen = hit.depth
-        rows[j.name] = {"reach": r["reach"], "qmin": r["qmin"], "qmax": r["qmax"],
-                        "separation_m": r["separation_m"], **hit.as_dict()}
+        if r:
+            rows[j.name] = {"reach": r["reach"], "qmin": r["qmin"], "qmax": r["qmax"],
+                            "separation_m": r["separation_m"], **hit.as_dict()}
+        else:  # a cylindrical joint: one row per DOF for the drive, one for the exact sweep
+            rows[j.name] = hit.as_dict()
+            rows.update({n: {"reach": x["reach"], "qmin": x["qmin"], "qmax": x["qmax"],
+                             "separation_m": x["separation_m"]} for n, x in reached.items()})
         bad = False
-        if r["reach"] < TOL.sweep_reach:
-            problems.append(f"joint {j.name!r} reached {100 * r['reach']:.1f}% of its range "
-                            f"(needs {100 * TOL.sweep_reach:.0f}%)")
-            bad = True
         if pen > TOL.sim_penetration_mm:
             problems.append(f"joint {j.name!r} drives {hit.pair[0]!r} {pen:.3g} mm into "
                             f"{hit.pair[1]!r} at {hit.at} (limit {TOL.sim_penetration_mm} mm)")
             bad = True
-        if r["separation_m"] > TOL.sweep_separation_m:
-            problems.append(f"joint {j.name!r}: child separates {r['separation_m']:.3g} m from parent")
-            bad = True
-        if r["warnings"]:
-            problems.append(f"joint {j.name!r}: MuJoCo warnings {r['warnings']}")
-            bad = True
-        if bad and not worst_traj:
-            worst_traj = r["traj"]
-        worst_reach = min(worst_reach, r["reach"])
+        for name, x in reached.items():
+            if x["reach"] < TOL.sweep_reach:
+                problems.append(f"joint {name!r} reached {100 * x['reach']:.1f}% of its range "
+                                f"(needs {100 * TOL.sweep_reach:.0f}%)")
+                bad = True
+            if x["separation_m"] > TOL.sweep_separation_m:
+                problems.append(f"joint {name!r}: child separates {x['separation_m']:.3g} m from parent")
+                bad = True
+            if x["warnings"]:
+                problems.append(f"joint {name!r}: MuJoCo warnings {x['warnings']}")
+                bad = True
+            if bad and not worst_traj:
+                worst_traj = x["traj"]
+            worst_reach = min(worst_reach, x["reach"])
+            worst_sep = max(worst_sep, x["separation_m"])
         worst_pen = max(worst_pen, pen)
-        worst_sep = max(worst_sep, r["separation_m"])
     measured = {"min_reach": worst_reach, "max_new_penetration_mm": worst_pen,
                 "max_separation_m": worst_sep, "booleans": scene.booleans, "joints": rows}
     limits = {"min_reach": TOL.sweep_reach, "max_new_penetration_mm": TOL.sim_penetration_mm,

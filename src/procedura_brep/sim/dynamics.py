@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from ..articulation.tree import Articulation
+from ..articulation.tree import Articulation, JointDof
 from ..config import TOL
 from .report import CheckResult
 
@@ -41,10 +41,26 @@ def warnings_of(d) -> dict[str, int]:
     return out
 
 
+def exported_names(art: Articulation) -> list[str]:
+    """The MuJoCo joint names: a spherical joint's own, every other joint's 1-DOF joints
+    (a cylindrical joint's ``__slide`` and ``__turn``)."""
+    return [n for j in art.joints for n in ([j.name] if j.type == "spherical"
+                                             else [d.name for d in j.dofs()])]
+
+
+def _dof(art: Articulation, name: str) -> JointDof:
+    for j in art.joints:
+        for d in j.dofs():
+            if d.name == name:
+                return d
+    raise KeyError(f"no 1-DOF joint named {name!r}")
+
+
 def _ids(m, art: Articulation):
     import mujoco
-    jid = {j.name: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j.name) for j in art.joints}
-    aid = {j.name: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, j.name) for j in art.joints}
+    names = exported_names(art)
+    jid = {n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n) for n in names}
+    aid = {n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, n) for n in names}
     return jid, aid
 
 
@@ -77,7 +93,8 @@ def check_b1(m, art: Articulation) -> tuple[CheckResult, list[np.ndarray]]:
             traj.append(d.qpos.copy())
     free = _free_dof(m)
     jid, _ = _ids(m, art)
-    speeds = {n: float(np.abs(d.qvel[m.jnt_dofadr[i]:m.jnt_dofadr[i] + (3 if art.joint(n).type == "spherical" else 1)]).max())
+    balls = {j.name for j in art.joints if j.type == "spherical"}
+    speeds = {n: float(np.abs(d.qvel[m.jnt_dofadr[i]:m.jnt_dofadr[i] + (3 if n in balls else 1)]).max())
               for n, i in jid.items() if i >= 0}
     worst = max(speeds, key=speeds.get) if speeds else None
     jspeed = speeds.get(worst, 0.0) if worst else 0.0
@@ -116,10 +133,11 @@ def _rot(q: np.ndarray) -> np.ndarray:
 
 
 def sweep_joint(m, art: Articulation, name: str) -> dict:
-    """Drive one joint through its range (others held at 0). Returns reach data and the
-    trajectory; gravity should be off in ``m`` (the sweep tests range, B1 tests gravity)."""
+    """Drive one 1-DOF joint (a joint's name, or a cylindrical joint's ``__slide`` / ``__turn``)
+    through its range (others held at 0). Returns reach data and the trajectory; gravity should
+    be off in ``m`` (the sweep tests range, B1 tests gravity)."""
     import mujoco
-    j = art.joint(name)
+    j = _dof(art, name)
     jid, aid = _ids(m, art)
     i, a = jid[name], aid[name]
     qadr = int(m.jnt_qposadr[i])
@@ -161,8 +179,10 @@ def sweep_joint(m, art: Articulation, name: str) -> dict:
 
 def check_b4(m, art: Articulation, wheels: list[str], floor_z: float
              ) -> tuple[CheckResult, list[np.ndarray]]:
-    """B4: after settling, every wheel touches the floor, and driving the wheels moves the root
-    at least ``TOL.drive_min_ratio`` of the ideal rolling distance."""
+    """B4: after settling, every wheel touches the floor, and one uniform command on every wheel
+    (the articulation gives all wheels one drive sign) moves the root at least
+    ``TOL.drive_min_ratio`` of the ideal rolling distance while it turns by at most
+    ``TOL.drive_max_yaw_deg`` (a straight drive)."""
     import mujoco
     if not wheels:
         return CheckResult("B4", "wheeled mobility", True, message="no wheels: skipped",
@@ -179,14 +199,14 @@ def check_b4(m, art: Articulation, wheels: list[str], floor_z: float
     jid, aid = _ids(m, art)
     off = [w for w in wheels if not any(lk in touching for lk in art.subtree(art.joint(w).child))]
     free = _free_qpos(m)
-    a0 = art.joint(wheels[0]).axis
     start = d.qpos[free:free + 3].copy() if free is not None else np.zeros(3)
+    yaw0 = _yaw(d.qpos[free + 3:free + 7]) if free is not None else 0.0
     traj = []
     radius = np.mean([max(art.joint(w).anchor_m[2] - floor_z, 1e-3) for w in wheels])
     v = min(min(art.joint(w).velocity for w in wheels), 2 * math.pi)
     for k in range(int(DRIVE_S / m.opt.timestep)):
         for w in wheels:
-            d.ctrl[aid[w]] = v * (1.0 if np.dot(art.joint(w).axis, a0) >= 0 else -1.0)
+            d.ctrl[aid[w]] = v  # one uniform command: the drive signs are the articulation's
         mujoco.mj_step(m, d)
         if k % 100 == 0:
             traj.append(d.qpos.copy())
@@ -194,17 +214,30 @@ def check_b4(m, art: Articulation, wheels: list[str], floor_z: float
              else 0.0)
     ideal = v * radius * DRIVE_S
     ratio = moved / ideal if ideal > 0 else 0.0
+    yaw = (math.degrees(_yaw(d.qpos[free + 3:free + 7]) - yaw0) if free is not None else 0.0)
+    yaw = (yaw + 180.0) % 360.0 - 180.0
     problems = []
     if off:
         problems.append(f"wheel(s) {', '.join(off)} do not touch the floor after settling")
     if ratio < TOL.drive_min_ratio:
         problems.append(f"root {art.root.name!r} travelled {moved:.3g} m of {ideal:.3g} m ideal "
                         f"(ratio {ratio:.2f} < {TOL.drive_min_ratio})")
+    if abs(yaw) > TOL.drive_max_yaw_deg:
+        problems.append(f"a uniform command on every wheel turned the base {yaw:.3g} deg in "
+                        f"{DRIVE_S} s (limit {TOL.drive_max_yaw_deg} deg): the wheels do not share "
+                        f"one drive sign")
     measured = {"wheels": len(wheels), "wheels_off_ground": len(off), "travel_m": moved,
-                "travel_ratio": ratio}
-    limits = {"wheels_off_ground": 0, "travel_ratio": TOL.drive_min_ratio}
+                "travel_ratio": ratio, "yaw_deg": yaw}
+    limits = {"wheels_off_ground": 0, "travel_ratio": TOL.drive_min_ratio,
+              "yaw_deg": TOL.drive_max_yaw_deg}
     return CheckResult("B4", "wheeled mobility", not problems, measured, limits,
                        "; ".join(problems) or f"{len(wheels)} wheels on the floor; drove {moved:.3g} m"), traj
+
+
+def _yaw(q: np.ndarray) -> float:
+    """Yaw (rad, about world z) of a MuJoCo quaternion (w, x, y, z)."""
+    w, x, y, z = (float(c) for c in q)
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
 def check_b7(m) -> tuple[CheckResult, list[np.ndarray]]:

@@ -32,12 +32,27 @@ def angle(a: np.ndarray, b: np.ndarray) -> float:
 def expected_frames(art: Articulation, world: np.ndarray | None = None
                     ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """``{joint: (anchor m, axis)}`` from the mate graph, optionally re-expressed in ``world``
-    (a 4x4 mm frame, e.g. the URDF root)."""
+    (a 4x4 mm frame, e.g. the URDF root); a cylindrical joint's ``__slide`` and ``__turn``
+    share its anchor and axis."""
     inv = np.eye(4) if world is None else np.linalg.inv(world)
     out = {}
     for j in art.joints:
         f = inv @ j.frame
         out[j.name] = (f[:3, 3] / 1000.0, f[:3, 2] / np.linalg.norm(f[:3, 2]))
+        if j.type == "cylindrical":
+            for d in j.dofs():
+                out[d.name] = out[j.name]
+    return out
+
+
+def mj_joint_types(art: Articulation) -> dict[str, str]:
+    """``{exported joint name: MuJoCo type}`` the mate graph asks for."""
+    out = {}
+    for j in art.joints:
+        if j.type == "spherical":
+            out[j.name] = "ball"
+        for d in j.dofs():
+            out[d.name] = MJ_TYPES[d.type]
     return out
 
 
@@ -47,13 +62,14 @@ def compare_frames(art: Articulation, got: dict[str, tuple[np.ndarray, np.ndarra
     """(max anchor error m, max axis error rad, worst-anchor joint, worst-axis joint)."""
     da = dr = 0.0
     wa = wr = None
+    spherical = {j.name for j in art.joints if j.type == "spherical"}
     for name, (anchor, axis) in expected.items():
         if name not in got:
             continue
         e = float(np.linalg.norm(got[name][0] - anchor))
         if e > da:
             da, wa = e, name
-        if art.joint(name).type != "spherical":
+        if name not in spherical:
             r = angle(got[name][1], axis)
             if r > dr:
                 dr, wr = r, name
@@ -86,7 +102,7 @@ def check_b0(art: Articulation, m) -> CheckResult:
     links = sorted(lk.name for lk in art.links)
     got_types = {m.joint(i).name: _mj_type(m, i) for i in range(m.njnt)
                  if m.jnt_type[i] != mujoco.mjtJoint.mjJNT_FREE}
-    want_types = {j.name: MJ_TYPES[j.type] for j in art.joints}
+    want_types = mj_joint_types(art)
     da, dr, wa, wr = compare_frames(art, mj_joint_frames(m), expected_frames(art))
     measured = {"bodies": len(bodies), "joints": len(got_types), "anchor_err_m": da,
                 "axis_err_rad": dr}
@@ -114,7 +130,7 @@ def _urdf_strict_types(art: Articulation) -> dict[str, str]:
         if j.type == "spherical":
             out.update({f"{j.name}__{a}": "revolute" for a in "xyz"})
         else:
-            out[j.name] = j.type
+            out.update({d.name: d.type for d in j.dofs()})
     return out
 
 
@@ -128,7 +144,7 @@ def check_b5(art: Articulation, masses: dict[str, MassProps], urdf_dir: Path) ->
     measured: dict[str, object] = {}
     m = mujoco.MjModel.from_xml_path(str(urdf_dir / ROBOT_FILES["mujoco"]))
     got_types = {m.joint(i).name: _mj_type(m, i) for i in range(m.njnt)}
-    want_types = {j.name: MJ_TYPES[j.type] for j in art.joints}
+    want_types = mj_joint_types(art)
     if got_types != want_types:
         bad = sorted(k for k in set(got_types) | set(want_types) if got_types.get(k) != want_types.get(k))
         problems.append(f"mujoco-profile joint mismatch at {', '.join(bad)}: URDF "

@@ -1,15 +1,21 @@
-"""Exact-solid sweeps for battery B2: every joint's range sampled in closed form.
+"""Exact-solid sweeps for battery B2: every joint's range sampled densely enough to hit a fin.
 
 MuJoCo only sees convex hulls and stops only where they meet, so a part can pass *through*
-another between the two extremes a sweep reaches. Here each joint's commanded range is sampled
-(every :data:`REVOLUTE_STEP_DEG` for revolute joints, :data:`PRISMATIC_STEPS` steps for
-prismatic ones, at most :data:`MAX_SAMPLES`), and each spherical joint is tilted to
-:data:`SPHERE_FRACTIONS` of its cone in :data:`SPHERE_DIRECTIONS` directions. At each sample the
-moved subtree is posed with the mate-frame closed form (``F @ delta @ F^-1``, see
-:mod:`procedura_brep.mates.placement`) and the exact OCCT common of every (moved, fixed) part
-pair is measured (thickness ``2 V / S``, as :mod:`.contact`).
+another between the two extremes a sweep reaches. Here every (moved, fixed) part pair of a
+joint is sampled along the joint's whole range (a continuous joint over a full turn) with a
+spacing chosen from the geometry, by conservative advancement: no point of the moved part that
+is within reach of the fixed part travels more than ``TOL.sweep_step_mm`` between two samples,
+and points further away move at most their gap plus that step (see
+:meth:`SweepScene._sweep_pair`). A fin thicker than the step cannot lie between two samples.
+A cylindrical joint is swept on each DOF at the other's compiled value.
+Each spherical joint is tilted to :data:`SPHERE_FRACTIONS` of its cone in
+:data:`SPHERE_DIRECTIONS` directions (coarse: see docs/battery.md). At each sample the moved
+part is posed with the mate-frame closed form (``F @ delta @ F^-1``, see
+:mod:`procedura_brep.mates.placement`) and the exact OCCT common of the pair is measured
+(thickness ``2 V / S``, as :mod:`.contact`); the finding is the increase over the pair's
+thickness at rest.
 
-Cost is kept down by four prefilters, all conservative for the thickness measure:
+Cost is kept down by prefilters, all conservative for the thickness measure:
 
 * a pair is skipped when the moved part's swept envelope (its box corners' cylinder about a
   revolute axis, their sphere about a ball centre, its box stretched by a prismatic travel) misses
@@ -18,9 +24,12 @@ Cost is kept down by four prefilters, all conservative for the thickness measure
   joint; the two cross-axis directions of a prismatic one) overlap by less than
   ``TOL.sim_penetration_mm`` is skipped for the whole sweep: any common solid then lies in a slab
   thinner than the tolerance, and a solid inside a slab of thickness t has ``2 V / S <= t``;
-* per sample, the parts' oriented local bounding boxes must intersect (separating-axis test);
-* a pair already interfering at rest (thicker than :data:`TOL.sweep_rest_interference_mm`) is skipped:
-  rest interference is B3's and the mate gate's business.
+* only the moved part's surface cells (:mod:`.cells`) whose orbit (radius and height about a
+  revolute axis, cross-axis position for a prismatic one) passes near the fixed part's cells
+  count, and they alone set the sample spacing;
+* per pose, the surface-cell covers must meet and the parts' oriented local bounding boxes
+  intersect (separating-axis test) before the exact boolean runs, on both parts cut once per
+  pair to the region an interference along the sweep can lie in.
 """
 
 from __future__ import annotations
@@ -30,23 +39,25 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from .. import kernel
 from ..articulation.tree import Articulation, Joint
 from ..config import TOL
-from ..mates.placement import delta, rigid_inverse, rot_x, rot_z
+from ..mates.placement import delta, rigid_inverse, rot_x, rot_z, trans
 from ..program.model import CompiledModel
+from .cells import Cover, cover
 from .contact import Overlap, exact_overlap
 
 log = logging.getLogger(__name__)
 
-#: Revolute sample spacing along the commanded range, degrees.
-REVOLUTE_STEP_DEG = 5.0
-#: Prismatic joints are sampled at this many equal steps of their travel.
-PRISMATIC_STEPS = 16
-#: At most this many samples per revolute/prismatic joint: the step widens beyond 180 deg of
-#: range (a 340 deg yaw is sampled every 9.4 deg), which keeps the rover battery near 5 s.
-MAX_SAMPLES = 37
+#: At most this many poses per part pair: a spacing finer than this allows is widened (and
+#: the widened step is reported). Keeps a pathological part (a 10 m boom) from stalling B2.
+MAX_PAIR_SAMPLES = 20000
+#: Conservative advancement looks this far (mm) for the fixed part's surface: a cell further
+#: away counts as this far (a shorter advance, never a missed contact), which keeps the
+#: nearest-neighbour queries cheap.
+ADVANCE_HORIZON_MM = 25.0
 #: Spherical joints: tilt directions (about axes in the frame's XY plane, evenly spaced).
 SPHERE_DIRECTIONS = 8
 #: Spherical joints: tilts as fractions of the cone half-angle.
@@ -79,20 +90,51 @@ class SweepHit:
     value: float | tuple[float, float] | None = None
     samples: int = 0
     booleans: int = 0
+    step_mm: float = 0.0
     skipped_rest: list[tuple[str, str]] = field(default_factory=list)
 
     def as_dict(self) -> dict:
         return {"new_penetration_mm": self.depth, "pair": list(self.pair) if self.pair else None,
                 "at": self.at, "samples": self.samples, "booleans": self.booleans,
-                "skipped_rest_pairs": [list(p) for p in self.skipped_rest]}
+                "max_step_mm": self.step_mm,
+                "rest_interfering_pairs": [list(p) for p in self.skipped_rest]}
 
 
-def samples(joint: Joint, extra: tuple[float, ...] = ()) -> list[Sample]:
-    """The poses at which ``joint``'s sweep is checked (plus those values in ``extra`` that lie
-    outside the commanded range, e.g. a MuJoCo overshoot).
+def joint_values(joint: Joint, radius_mm: float, extra: tuple[float, ...] = ()) -> list[float]:
+    """Joint values (rad or m) along ``joint``'s range, spaced so that a point ``radius_mm`` from
+    a revolute axis (any point, for a prismatic joint) moves at most ``TOL.sweep_step_mm``
+    between two; a continuous joint covers one full turn. Values in ``extra`` (a MuJoCo
+    overshoot) are added where they lie outside the commanded range."""
+    step_mm = TOL.sweep_step_mm
+    if joint.type == "continuous":
+        n = max(4, math.ceil(2 * math.pi * max(radius_mm, 0.0) / step_mm))
+        n = min(n, MAX_PAIR_SAMPLES)
+        return (np.arange(n) * (2 * math.pi / n)).tolist()
+    lo, hi = float(joint.lower), float(joint.upper)  # type: ignore[arg-type]
+    if joint.type == "revolute":
+        n = math.ceil((hi - lo) * max(radius_mm, 0.0) / step_mm) + 1
+    else:
+        n = math.ceil((hi - lo) * 1000.0 / step_mm) + 1
+    values = np.linspace(lo, hi, max(2, min(MAX_PAIR_SAMPLES, n))).tolist()
+    return sorted(values + [q for q in extra if q < lo - OVERSHOOT_EPS or q > hi + OVERSHOOT_EPS])
 
-    Continuous joints have no range and give no samples.
-    """
+
+def motion(joint: Joint, q: float) -> np.ndarray:
+    """World 4x4 motion (mm) of ``joint``'s child subtree at value ``q`` (rad or m)."""
+    if joint.type == "prismatic":
+        d = delta("prismatic", q * 1000.0)
+    else:
+        d = delta("revolute", math.degrees(q))
+    return joint.frame @ d @ rigid_inverse(joint.frame)
+
+
+def label(joint: Joint, q: float) -> str:
+    return f"{q * 1000:.4g} mm" if joint.type == "prismatic" else f"{math.degrees(q):.4g} deg"
+
+
+def samples(joint: Joint, extra: tuple[float, ...] = (), *, radius_mm: float = 0.0) -> list[Sample]:
+    """The poses at which ``joint``'s sweep is checked for a moved point ``radius_mm`` from its
+    axis (see :func:`joint_values`); a spherical joint's tilts do not depend on the radius."""
     f, f_inv = joint.frame, rigid_inverse(joint.frame)
     out: list[Sample] = []
     if joint.type == "spherical":
@@ -105,23 +147,9 @@ def samples(joint: Joint, extra: tuple[float, ...] = ()) -> list[Sample]:
                 out.append(Sample(f"tilt {tilt:.3g} deg about direction {phi:.0f} deg",
                                   f @ d @ f_inv, (phi, frac * cone)))
         return out
-    if joint.type not in ("revolute", "prismatic"):
+    if joint.type not in ("revolute", "prismatic", "continuous"):
         return out
-    lo, hi = float(joint.lower), float(joint.upper)  # type: ignore[arg-type]
-    if joint.type == "revolute":
-        n = math.ceil(math.degrees(hi - lo) / REVOLUTE_STEP_DEG) + 1
-    else:
-        n = PRISMATIC_STEPS + 1
-    values = np.linspace(lo, hi, max(2, min(MAX_SAMPLES, n))).tolist()
-    # reached values (MuJoCo) only count where they overshoot the commanded range
-    values = sorted(values + [q for q in extra if q < lo - OVERSHOOT_EPS or q > hi + OVERSHOOT_EPS])
-    for q in values:
-        if joint.type == "revolute":
-            label, d = f"{math.degrees(q):.4g} deg", delta("revolute", math.degrees(q))
-        else:
-            label, d = f"{q * 1000:.4g} mm", delta("prismatic", q * 1000.0)
-        out.append(Sample(label, f @ d @ f_inv, q))
-    return out
+    return [Sample(label(joint, q), motion(joint, q), q) for q in joint_values(joint, radius_mm, extra)]
 
 
 def _corners(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
@@ -158,7 +186,21 @@ class SweepScene:
         self._box: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._rest: dict[tuple[str, str], Overlap] = {}
         self._extent: dict[tuple[str, bytes], tuple[float, float]] = {}
+        self._cover: dict[tuple[str, bytes], tuple[Cover, cKDTree | None]] = {}
         self.booleans = 0
+
+    def cover(self, name: str, joint: Joint | None = None) -> tuple[Cover, cKDTree | None]:
+        """The part's surface sphere cover at rest (world mm) and a KD-tree of its centres;
+        with a revolute or continuous ``joint``, without the faces its rotation leaves in
+        place (:mod:`.cells`)."""
+        axis = None
+        if joint is not None and joint.type in ("revolute", "continuous"):
+            axis = (joint.frame[:3, 3].copy(), joint.axis)
+        key = (name, b"" if axis is None else np.round(np.concatenate(axis), 9).tobytes())
+        if key not in self._cover:
+            c = cover(self.model.part(name).shape(), axis=axis)
+            self._cover[key] = (c, cKDTree(c.centres) if len(c.centres) else None)
+        return self._cover[key]
 
     def _local_box(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         if name not in self._box:
@@ -203,7 +245,7 @@ class SweepScene:
         return self._rest[key]
 
     def _invariant_dirs(self, joint: Joint) -> list[np.ndarray]:
-        if joint.type == "revolute":
+        if joint.type in ("revolute", "continuous"):
             return [joint.frame[:3, 2]]
         if joint.type == "prismatic":
             return [joint.frame[:3, 0], joint.frame[:3, 1]]
@@ -233,12 +275,18 @@ class SweepScene:
         return bool(z_ok and float(np.linalg.norm(near[:2])) <= r_a)
 
     def pairs(self, joint: Joint) -> tuple[list[tuple[str, str]], list[tuple[str, str]]]:
-        """(pairs to sweep, pairs skipped as interfering at rest) as (moved, fixed) part names."""
+        """(pairs to sweep, pairs that interfere at rest) as (moved, fixed) part names.
+
+        Moved parts are those of the joint's child subtree (rigid with each other: never
+        paired); fixed parts are every other part, the parent link's included. A pair that
+        already interferes at rest (thicker than ``TOL.sweep_rest_interference_mm``) is swept
+        too (its finding is the increase over the rest thickness) and also listed.
+        """
         moving = [p for lk in self.art.subtree(joint.child) for p in self.art.link(lk).parts]
         fixed = [p.name for p in self.model.parts if p.name not in set(moving)]
         dirs = [d / np.linalg.norm(d) for d in self._invariant_dirs(joint)]
         frame_inv = rigid_inverse(joint.frame)
-        keep, skipped = [], []
+        keep, at_rest = [], []
         for a in moving:
             for b in fixed:
                 if not self._may_meet(joint, a, b, frame_inv):
@@ -246,17 +294,173 @@ class SweepScene:
                 if any(_slab_gap(self.extent(a, d), self.extent(b, d)) for d in dirs):
                     continue
                 if self.rest(a, b).depth > TOL.sweep_rest_interference_mm:
-                    skipped.append((a, b))
-                    continue
+                    at_rest.append((a, b))
                 keep.append((a, b))
-        return keep, skipped
+        return keep, at_rest
+
+    def orbit_cells(self, joint: Joint, a: str, b: str) -> tuple[np.ndarray, float]:
+        """(centres of ``a``'s surface cells whose orbit under the joint passes near ``b``'s
+        cells, the largest distance from the axis of any point in them, mm; 0 for a prismatic
+        joint, whose points all move alike)."""
+        (ca, _), (cb, _) = self.cover(a, joint), self.cover(b)
+        if not len(ca.centres) or not len(cb.centres):
+            return ca.centres[:0], 0.0
+        inv = rigid_inverse(joint.frame)
+        pa = ca.centres @ inv[:3, :3].T + inv[:3, 3]
+        pb = cb.centres @ inv[:3, :3].T + inv[:3, 3]
+        reach = ca.radius + cb.radius
+        if joint.type == "prismatic":  # the orbit of a point is a line along the axis
+            qa, qb = pa[:, :2], pb[:, :2]
+        else:  # a circle about the axis: radius and height
+            qa = np.column_stack([np.linalg.norm(pa[:, :2], axis=1), pa[:, 2]])
+            qb = np.column_stack([np.linalg.norm(pb[:, :2], axis=1), pb[:, 2]])
+        dist, _ = cKDTree(qb).query(qa, distance_upper_bound=reach)
+        near = np.isfinite(dist)
+        if not near.any():
+            return ca.centres[:0], 0.0
+        radius = 0.0 if joint.type == "prismatic" else float(qa[near, 0].max()) + ca.radius
+        return ca.centres[near], radius
 
     def sweep(self, joint: Joint, extra: tuple[float, ...] = ()) -> SweepHit:
         """The deepest new exact interference over the joint's samples."""
+        if joint.type == "spherical":
+            return self._sweep_ball(joint)
+        if joint.type == "cylindrical":
+            return self._sweep_cylindrical(joint)
         hit = SweepHit(joint.name)
         todo, hit.skipped_rest = self.pairs(joint)
         start = self.booleans
-        for s in samples(joint, extra):
+        eye = np.eye(4)
+        for a, b in todo:
+            cells, radius = self.orbit_cells(joint, a, b)
+            if not len(cells):
+                continue
+            n, worst = self._sweep_pair(joint, a, b, cells, extra)
+            hit.samples = max(hit.samples, n)
+            hit.step_mm = TOL.sweep_step_mm
+            if worst is not None and worst[0] > hit.depth:
+                hit.depth, hit.volume, q = worst
+                hit.pair, hit.at, hit.value = (a, b), label(joint, q), q
+        hit.booleans = self.booleans - start
+        log.debug("sweep %s: %d samples max, %d pairs, %d booleans, worst %.3g mm", joint.name,
+                  hit.samples, len(todo), hit.booleans, hit.depth)
+        return hit
+
+    def _sweep_pair(self, joint: Joint, a: str, b: str, cells: np.ndarray,
+                    extra: tuple[float, ...]) -> tuple[int, tuple[float, float, float] | None]:
+        """Conservative advancement along the range: at each pose every cell's gap to the fixed
+        part's cover bounds how far its points may move before they can touch, so the next pose
+        is the nearest at which some cell has moved its gap plus ``TOL.sweep_step_mm``, and never
+        closer than ``sweep_step_mm`` at the largest lever arm. No point of a cell within reach of
+        the fixed part moves more than ``sweep_step_mm`` between two poses. Returns (poses,
+        (new depth, volume, joint value) of the worst pose or None)."""
+        (ca, _), (cb, tb) = self.cover(a, joint), self.cover(b)
+        inv = rigid_inverse(joint.frame)
+        local = cells @ inv[:3, :3].T + inv[:3, 3]
+        if joint.type == "prismatic":  # mm of travel per metre of joint value
+            lever = np.full(len(cells), 1000.0)
+        else:  # mm per radian
+            lever = np.linalg.norm(local[:, :2], axis=1) + ca.radius
+        if joint.type == "continuous":
+            lo, hi = 0.0, 2 * math.pi
+        else:
+            lo, hi = float(joint.lower), float(joint.upper)  # type: ignore[arg-type]
+        step = TOL.sweep_step_mm
+        min_adv = max(step / float(lever.max()), (hi - lo) / MAX_PAIR_SAMPLES)
+        reach = ca.radius + cb.radius
+        box_b = self.obb(b, np.eye(4))
+        rest = self.rest(a, b).depth
+        crops = None
+        worst: tuple[float, float, float] | None = None
+        outside = [q for q in extra if q < lo - OVERSHOOT_EPS or q > hi + OVERSHOOT_EPS]
+
+        def check(q: float) -> np.ndarray:
+            """Check the pose at ``q``; return every cell's gap to the fixed part (mm)."""
+            nonlocal crops, worst
+            m = motion(joint, q)
+            dist, _ = tb.query(cells @ m[:3, :3].T + m[:3, 3],
+                               distance_upper_bound=reach + ADVANCE_HORIZON_MM)
+            gap = np.minimum(dist, reach + ADVANCE_HORIZON_MM) - reach
+            if (gap <= 0).any() and _obb_overlap(self.obb(a, m), box_b, TOL.sweep_box_slack_mm):
+                if crops is None:
+                    crops = self._crops(joint, a, b, local, rest,
+                                        (min([lo, *outside]), max([hi, *outside])))
+                self.booleans += 1
+                o = exact_overlap(a, kernel.located(crops[0], m), b, crops[1])
+                if worst is None or o.depth - rest > worst[0]:
+                    worst = (o.depth - rest, o.volume, q)
+            return gap
+
+        for q in outside:  # MuJoCo overshoots beyond the commanded range: one pose each
+            check(q)
+        poses, q = len(outside), lo
+        while True:
+            gap = check(q)
+            poses += 1
+            if q >= hi - 1e-12:
+                break
+            adv = max(float(np.min((np.maximum(gap, 0.0) + step) / lever)), min_adv)
+            q = min(q + adv, hi)
+            if joint.type == "continuous" and q >= hi - 1e-12:
+                break  # a full turn: 2 pi is the first pose again
+        return poses, worst
+
+    def _crops(self, joint: Joint, a: str, b: str, local: np.ndarray, rest: float,
+               span: tuple[float, float]) -> tuple[object, object]:
+        """(``a`` at rest, ``b``) both cut to the region any interference along the sweep lies
+        in. For a pair clear at rest every boundary point of a common solid is a moved surface
+        point of ``a`` from the relevant cells (``local``, in the joint frame) or a point of
+        ``b`` on the orbit of one, and the common lies in the convex hull of its boundary: so it
+        lies in the solid cylinder about a revolute axis holding those cells (a box stretched by
+        the travel along a prismatic axis), grown by a cell radius and a step. A pair that
+        interferes at rest is not cut. ``span`` is the joint values checked (m or rad)."""
+        pa, pb = self.model.part(a), self.model.part(b)
+        if rest > 0.0:
+            return pa.shape(), pb.shape()
+        from OCP.BRepAlgoAPI import BRepAlgoAPI_Common
+        from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox, BRepPrimAPI_MakeCylinder
+        from OCP.gp import gp_Pnt
+        grow = self.cover(a, joint)[0].radius + TOL.sweep_step_mm + TOL.sweep_box_slack_mm
+        zlo, zhi = float(local[:, 2].min()) - grow, float(local[:, 2].max()) + grow
+        if joint.type == "prismatic":  # stretched by the travel (``span``, m)
+            zlo += 1000.0 * min(0.0, span[0])
+            zhi += 1000.0 * max(0.0, span[1])
+            xlo, ylo = local[:, :2].min(axis=0) - grow
+            xhi, yhi = local[:, :2].max(axis=0) + grow
+            region = BRepPrimAPI_MakeBox(gp_Pnt(float(xlo), float(ylo), zlo),
+                                         gp_Pnt(float(xhi), float(yhi), zhi)).Shape()
+        else:
+            r = float(np.linalg.norm(local[:, :2], axis=1).max()) + grow
+            region = kernel.located(BRepPrimAPI_MakeCylinder(r, zhi - zlo).Shape(), trans_z(zlo))
+        region = kernel.located(region, joint.frame)
+
+        def cut(shape):
+            op = BRepAlgoAPI_Common(shape, region)
+            return op.Shape() if op.IsDone() else shape
+        return cut(pa.shape()), cut(pb.shape())
+
+    def _sweep_cylindrical(self, joint: Joint) -> SweepHit:
+        """Both DOF of a cylindrical joint, each over its whole range at the other's compiled
+        value (the slide at the home angle, the turn at the home position), each spaced as a
+        prismatic or revolute joint's; the worst of the two."""
+        import dataclasses
+        slide = dataclasses.replace(joint, type="prismatic")
+        turn = dataclasses.replace(joint, type="continuous" if joint.turn_lower is None else "revolute",
+                                   lower=joint.turn_lower, upper=joint.turn_upper)
+        hits = [self.sweep(slide), self.sweep(turn)]
+        worst = max(range(2), key=lambda k: hits[k].depth)
+        out = dataclasses.replace(hits[worst], joint=joint.name, samples=sum(h.samples for h in hits),
+                                  booleans=sum(h.booleans for h in hits),
+                                  step_mm=max(h.step_mm for h in hits))
+        if out.pair is not None:
+            out.at = f"{('slide', 'turn')[worst]} {out.at}"
+        return out
+
+    def _sweep_ball(self, joint: Joint) -> SweepHit:
+        hit = SweepHit(joint.name)
+        todo, hit.skipped_rest = self.pairs(joint)
+        start = self.booleans
+        for s in samples(joint):
             hit.samples += 1
             for a, b in todo:
                 if not _obb_overlap(self.obb(a, s.motion), self.obb(b, np.eye(4)), TOL.sweep_box_slack_mm):
@@ -266,9 +470,11 @@ class SweepScene:
                 if new > hit.depth:
                     hit.depth, hit.volume, hit.pair, hit.at, hit.value = new, o.volume, (a, b), s.label, s.value
         hit.booleans = self.booleans - start
-        log.debug("sweep %s: %d samples, %d pairs, %d booleans, worst %.3g mm", joint.name,
-                  hit.samples, len(todo), hit.booleans, hit.depth)
         return hit
+
+
+def trans_z(z: float) -> np.ndarray:
+    return trans(z=z)
 
 
 def _slab_gap(a: tuple[float, float], b: tuple[float, float]) -> bool:

@@ -1,0 +1,167 @@
+"""A conservative sphere cover of a part's surface, for the sweep's near-contact prefilter.
+
+Points are laid on every triangle of the part's shipped tessellation (world coordinates, rest
+pose) no further apart than ``TOL.sweep_cell_mm / 2`` and binned into cubic cells of side
+``TOL.sweep_cell_mm``. Each occupied cell becomes one sphere about the cell centre whose radius
+covers the cell (half its diagonal), the point spacing and the tessellation's deviation from the
+exact surface (``TOL.mesh_linear_mm``), so every point of the exact surface lies inside a sphere.
+
+For a moved part, the faces whose rotation about the joint axis sweeps no volume are left out:
+planes normal to the axis (they slide in their own plane, whatever their outline), and
+cylinders, cones, spheres and tori about the axis bounded only by circles about it and seams (a
+pin, a round hub: they map onto themselves). A point changes from outside to inside the moved
+solid only when a boundary point passes over it, so only the other faces can start or deepen an
+interference (:func:`invariant_under_rotation`).
+
+Two posed solids whose covers do not meet have disjoint surfaces: they are apart, or one lies
+wholly inside the other (which a sweep that moves no point by more than ``TOL.sweep_step_mm`` a
+step can only reach through a pose where the surfaces met).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..config import TOL
+
+#: Two directions are parallel (and a point is on an axis) within these tolerances.
+PARALLEL_EPS = 1e-9
+ON_AXIS_MM = 1e-6
+#: At most this many subdivisions of one triangle edge (bounds the points of a huge face).
+MAX_SUBDIV = 400
+
+
+@dataclass(frozen=True)
+class Cover:
+    """Sphere centres (n, 3) in world mm at rest and their common radius, mm."""
+
+    centres: np.ndarray
+    radius: float
+
+
+def _triangles(face, o) -> np.ndarray:
+    loc = o["TopLoc"].TopLoc_Location()
+    tri = o["BRep"].BRep_Tool.Triangulation_s(face, loc)
+    if tri is None:
+        return np.zeros((0, 3, 3))
+    t = loc.Transformation()
+    pts = np.array([(p.X(), p.Y(), p.Z()) for p in
+                    (tri.Node(i).Transformed(t) for i in range(1, tri.NbNodes() + 1))])
+    idx = np.array([tri.Triangle(i).Get() for i in range(1, tri.NbTriangles() + 1)], dtype=np.int64) - 1
+    return pts[idx]
+
+
+def _cells(tris: np.ndarray, h: float, cell: float) -> np.ndarray:
+    """Integer keys (n, 3) of the cells of side ``cell`` holding points laid on triangles
+    (n, 3, 3) so that no surface point is further than ``h`` from one."""
+    if not len(tris):
+        return np.zeros((0, 3), dtype=np.int64)
+    edge = np.max(np.linalg.norm(tris - np.roll(tris, 1, axis=1), axis=2), axis=1)
+    subdiv = np.clip(np.ceil(edge / h).astype(int), 1, MAX_SUBDIV)
+    lo = np.floor(tris.reshape(-1, 3).min(axis=0) / cell).astype(np.int64) - 1
+    span = np.floor(tris.reshape(-1, 3).max(axis=0) / cell).astype(np.int64) - lo + 2
+
+    def codes(pts: np.ndarray) -> np.ndarray:
+        k = np.floor(pts / cell).astype(np.int64) - lo
+        return np.unique((k[:, 0] * span[1] + k[:, 1]) * span[2] + k[:, 2])
+
+    out = [codes(tris.reshape(-1, 3))]
+    for n in np.unique(subdiv):
+        if n <= 1:
+            continue
+        i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
+        keep = (i + j) <= n
+        bary = np.column_stack([i[keep], j[keep], n - i[keep] - j[keep]]) / n  # (k, 3)
+        group = tris[subdiv == n]  # (g, 3, 3)
+        step = max(1, 2_000_000 // max(1, len(bary)))  # bound the memory of one batch
+        for s in range(0, len(group), step):
+            out.append(codes(np.einsum("kc,gcd->gkd", bary, group[s:s + step]).reshape(-1, 3)))
+    c = np.unique(np.concatenate(out))
+    kz = c % span[2]
+    ky = (c // span[2]) % span[1]
+    kx = c // (span[2] * span[1])
+    return np.column_stack([kx, ky, kz]) + lo
+
+
+def _circle_about(curve, point: np.ndarray, axis: np.ndarray) -> bool:
+    return _coaxial(curve.Circle().Axis(), point, axis)
+
+
+def _coaxial(ax1, point: np.ndarray, axis: np.ndarray) -> bool:
+    d = ax1.Direction()
+    u = np.array([d.X(), d.Y(), d.Z()])
+    if abs(abs(float(u @ axis)) - 1.0) > PARALLEL_EPS:
+        return False
+    loc = ax1.Location()
+    q = np.array([loc.X(), loc.Y(), loc.Z()]) - point
+    return float(np.linalg.norm(q - (q @ axis) * axis)) <= ON_AXIS_MM
+
+
+def invariant_under_rotation(face, point: np.ndarray, axis: np.ndarray, o) -> bool:
+    """Whether a rotation about the line (``point``, unit ``axis``) sweeps no volume with
+    ``face``: a plane normal to the axis (whatever its outline: it slides in its own plane), or
+    a surface of revolution about the axis bounded only by circles about it and seams (it maps
+    onto itself)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Curve, BRepAdaptor_Surface
+    from OCP.GeomAbs import GeomAbs_CurveType, GeomAbs_SurfaceType as S
+    surf = BRepAdaptor_Surface(face)
+    kind = surf.GetType()
+    if kind == S.GeomAbs_Plane:
+        return abs(abs(float(np.array(_dir(surf.Plane().Axis().Direction())) @ axis)) - 1) <= PARALLEL_EPS
+    elif kind == S.GeomAbs_Cylinder:
+        ok = _coaxial(surf.Cylinder().Axis(), point, axis)
+    elif kind == S.GeomAbs_Cone:
+        ok = _coaxial(surf.Cone().Axis(), point, axis)
+    elif kind == S.GeomAbs_Torus:
+        ok = _coaxial(surf.Torus().Axis(), point, axis)
+    elif kind == S.GeomAbs_Sphere:
+        c = surf.Sphere().Location()
+        q = np.array([c.X(), c.Y(), c.Z()]) - point
+        ok = float(np.linalg.norm(q - (q @ axis) * axis)) <= ON_AXIS_MM
+    else:
+        ok = False
+    if not ok:
+        return False
+    brep_tool = o["BRep"].BRep_Tool
+    exp = o["TopExp"].TopExp_Explorer(face, o["TopAbs"].TopAbs_EDGE)
+    while exp.More():
+        edge = o["TopoDS"].TopoDS.Edge(exp.Current())
+        exp.Next()
+        if brep_tool.Degenerated_s(edge) or brep_tool.IsClosed_s(edge, face):
+            continue  # a pole or a seam
+        curve = BRepAdaptor_Curve(edge)
+        if curve.GetType() != GeomAbs_CurveType.GeomAbs_Circle or not _circle_about(curve, point, axis):
+            return False
+    return True
+
+
+def _dir(d) -> tuple[float, float, float]:
+    return (d.X(), d.Y(), d.Z())
+
+
+def cover(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
+          cell: float = TOL.sweep_cell_mm) -> Cover:
+    """The sphere cover of the located, meshed ``shape``; with ``axis`` = (point, unit
+    direction), the faces invariant under rotation about it are left out."""
+    from ..kernel import _ocp
+    o = _ocp()
+    # the shipped tessellation's settings (a no-op where the shape is already meshed)
+    o["BRepMesh"].BRepMesh_IncrementalMesh(shape, TOL.mesh_linear_mm, False, TOL.mesh_angular_rad, False)
+    h = cell / 2.0
+    tris = []
+    exp = o["TopExp"].TopExp_Explorer(shape, o["TopAbs"].TopAbs_FACE)
+    while exp.More():
+        face = o["TopoDS"].TopoDS.Face(exp.Current())
+        exp.Next()
+        if axis is not None and invariant_under_rotation(face, axis[0], axis[1], o):
+            continue
+        tris.append(_triangles(face, o))
+    keys = _cells(np.vstack(tris), h, cell) if tris else np.zeros((0, 3), dtype=np.int64)
+    centres = (keys + 0.5) * cell
+    radius = cell * np.sqrt(3.0) / 2.0 + h + TOL.mesh_linear_mm
+    return Cover(np.asarray(centres, float), float(radius))
+
+
+__all__ = ["Cover", "cover", "invariant_under_rotation"]
