@@ -91,7 +91,7 @@ def run(kind: str, source: str, extra: list[str], timeout: float) -> tuple[float
     with tempfile.TemporaryDirectory() as tmp:
         prog = Path(tmp) / "hostile.py"
         prog.write_text(source)
-        cmd = [sys.executable, "-m", "procedura_brep.cli", kind, str(prog)]
+        cmd = [sys.executable, "-m", "procedura_brep.cli", kind, str(prog), "-q"]  # no progress lines
         cmd += ["-o", str(Path(tmp) / "out"), "--formats", "step"] if kind == "build" else extra
         t = time.perf_counter()
         try:
