@@ -41,21 +41,13 @@ def serial(req: dict) -> str:
     return "".join(out)
 
 
-def ratio(a: str, b: str) -> float:
-    n = 0
-    for x, y in zip(a, b):
-        if x != y:
-            break
-        n += 1
-    return n / max(len(b), 1)
-
-
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--parts", type=int, default=30)
     ap.add_argument("--views", type=int, default=12)
     ap.add_argument("--simulate", action="store_true", help="run the MuJoCo battery in the final build")
     args = ap.parse_args()
+    from procedura_brep.agent.context import prefix_fraction
     from procedura_brep.agent.staged import StagedOptions, generate_staged
     from procedura_brep.render.views import DEFAULT_VIEWS
     from procedura_brep.testing.tapes import staged_tape, write_tape
@@ -71,7 +63,7 @@ def main() -> None:
         per = list(report["overhead_per_part_s"].values())
         calls = [json.loads(x) for x in (out / "transcript.jsonl").read_text().splitlines()]
         builds = [serial(c["request"]) for c in calls if c["role"] == "build"]
-        ratios = [ratio(a, b) for a, b in zip(builds, builds[1:])]
+        ratios = [prefix_fraction(a, b) for a, b in zip(builds, builds[1:])]
     print(f"status {res.status}; {len(per)} parts committed, {args.views} views per build call")
     print(f"overhead per part: median {statistics.median(per):.3f} s, max {max(per):.3f} s "
           f"(first part {per[0]:.3f} s: worker start)  target median <= 1.5 s")

@@ -94,10 +94,10 @@ def serialise(request: Request) -> str:
 
 def prefix_ratio(previous: Request, current: Request) -> float:
     """The byte-identical prefix of two requests as a fraction of the current one's length."""
-    a, b = serialise(previous), serialise(current)
-    n = 0
-    for x, y in zip(a, b):
-        if x != y:
-            break
-        n += 1
-    return n / max(len(b), 1)
+    return prefix_fraction(serialise(previous), serialise(current))
+
+
+def prefix_fraction(a: str, b: str) -> float:
+    """The length of the common prefix of ``a`` and ``b`` as a fraction of ``b``'s length."""
+    import os.path
+    return len(os.path.commonprefix([a, b])) / max(len(b), 1)
