@@ -18,6 +18,7 @@ appended), so they share the whole earlier request too. :func:`prefix_ratio` mea
 from __future__ import annotations
 
 import json
+import os.path
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -99,5 +100,4 @@ def prefix_ratio(previous: Request, current: Request) -> float:
 
 def prefix_fraction(a: str, b: str) -> float:
     """The length of the common prefix of ``a`` and ``b`` as a fraction of ``b``'s length."""
-    import os.path
     return len(os.path.commonprefix([a, b])) / max(len(b), 1)
