@@ -124,3 +124,37 @@ def test_second_object_floater_caught_repairs_and_an_ungated_give_up(tmp_path):
     assert "edit refused" in refused and "syntax error" in refused
     assert "needs a fresh diagnosis" in refused
     assert "finish(ok) refused" in refused and "HIGH issue(s) open: [HIGH] knob" in refused
+
+
+def _tape(tmp_path, calls):
+    from procedura_brep.testing.tapes import write_tape
+    rows = [{"v": 1, "role": role, "step": k, "model": "hand-written", "request": {},
+             "reply": {"text": text, "usage": {}}} for k, (role, text) in enumerate(calls)]
+    rows[0]["note"] = "HAND-WRITTEN TAPE (built by this test)"
+    write_tape(tmp_path / "t.jsonl", rows)
+    return tmp_path / "t.jsonl"
+
+
+LAMP_PROGRAM = Path(__file__).parents[1] / "program" / "lamp.py"
+
+
+def test_ablations_no_plan_and_no_review_no_feedback_no_refine(tmp_path):
+    from procedura_brep.testing.tapes import part_replies, plan_from_program
+    src = LAMP_PROGRAM.read_text()
+    replies = part_replies(src)
+    # --no-plan: every build call names its own part; DONE ends the build
+    tape = _tape(tmp_path, [("build", r) for r in replies] + [("build", "DONE")])
+    res = generate_staged("a lamp", tmp_path / "noplan", model=f"replay:{tape}",
+                          options=StagedOptions(plan=False, refine=False, simulate=False))
+    assert res.status == "ok", res.message
+    assert [c.name for c in res.state.committed] == ["base", "post", "arm"] and res.state.plan is None
+    # --no-review --no-feedback --no-refine: plan, then builds without renders, nothing else
+    plan = "```json\n" + json.dumps(plan_from_program(src)) + "\n```"
+    tape = _tape(tmp_path, [("plan", plan)] + [("build", r) for r in replies])
+    out = tmp_path / "plain"
+    res = generate_staged("a lamp", out, model=f"replay:{tape}",
+                          options=StagedOptions(review=False, feedback=False, refine=False, simulate=False))
+    assert res.status == "ok", res.message and res.refine == {}
+    calls = [json.loads(x) for x in (out / "transcript.jsonl").read_text().splitlines()]
+    assert [c["role"] for c in calls] == ["plan", "build", "build", "build"]
+    assert not any(m["images"] for c in calls for m in c["request"]["messages"])

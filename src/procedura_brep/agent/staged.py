@@ -362,7 +362,7 @@ class StagedRun:
                                            formats=self.options.formats)
             result.build = build
             if status == "ok" and not build.ok:
-                result.status, result.message = "gates_failed", build.reason
+                result.status, result.message = build.status, build.reason
             if status == "ok":
                 self._advance("done")
         self._write_report(result)
