@@ -109,6 +109,18 @@ def bbox(shape, *, optimal: bool = True) -> tuple[tuple[float, float, float], tu
     return (lo.X(), lo.Y(), lo.Z()), (hi.X(), hi.Y(), hi.Z())
 
 
+def solids(shape) -> list:
+    """The solids of ``shape`` (a compound, a solid ...), in explorer order; empty if none."""
+    from OCP.TopAbs import TopAbs_SOLID
+    from OCP.TopExp import TopExp_Explorer
+    out = []
+    exp = TopExp_Explorer(shape, TopAbs_SOLID)
+    while exp.More():
+        out.append(exp.Current())
+        exp.Next()
+    return out
+
+
 def is_valid(shape) -> bool:
     """BRepCheck validity."""
     return bool(_ocp()["BRepCheck"].BRepCheck_Analyzer(shape).IsValid())

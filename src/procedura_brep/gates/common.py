@@ -176,7 +176,7 @@ def exact_common(shape_a: Any, shape_b: Any) -> list[CommonSolid] | None:
     if not op.IsDone():
         return None
     out = []
-    for s in _solids(op.Shape()):
+    for s in kernel.solids(op.Shape()):
         vol = abs(kernel.volume(s))
         if vol <= MIN_COMMON_MM3:
             continue
@@ -184,18 +184,6 @@ def exact_common(shape_a: Any, shape_b: Any) -> list[CommonSolid] | None:
         lo, hi = (np.array(c, float) for c in kernel.bbox(s))  # exact: ring axes are centred on it
         nodes = _nodes(s, float(np.min(hi - lo)))
         out.append(CommonSolid(vol, area, lo, hi, nodes, _min_width(nodes), s))
-    return out
-
-
-def _solids(shape: Any) -> list[Any]:
-    from OCP.TopAbs import TopAbs_SOLID
-    from OCP.TopExp import TopExp_Explorer
-
-    out = []
-    exp = TopExp_Explorer(shape, TopAbs_SOLID)
-    while exp.More():
-        out.append(exp.Current())
-        exp.Next()
     return out
 
 

@@ -162,15 +162,9 @@ def dihedral_edges(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray,
 
 
 def _solids(shape: Any) -> list[Any]:
-    from OCP.TopAbs import TopAbs_SOLID
-    from OCP.TopExp import TopExp_Explorer
-
-    out = []
-    exp = TopExp_Explorer(shape, TopAbs_SOLID)
-    while exp.More():
-        out.append(exp.Current())
-        exp.Next()
-    return out or [shape]
+    """The solids of ``shape``, or the shape itself when it holds none."""
+    from .. import kernel
+    return kernel.solids(shape) or [shape]
 
 
 def part_geometry(part: CompiledPart) -> PartGeometry:
