@@ -120,6 +120,7 @@ class RefineBench:
         self.last_images: list[Image] = []
         self.last_legend = ""
         self._models: dict[str, CompiledModel] = {}
+        self._outcomes: dict[str, CompileOutcome] = {}
 
     def _model(self, source: str) -> CompiledModel:
         if source not in self._models:
@@ -158,11 +159,7 @@ class RefineBench:
         return crit
 
     def _n_vis(self, source: str) -> int:
-        from ..gates.connectivity import analyse
-        try:
-            return analyse(self._model(source)).n_vis
-        except ProceduraError:
-            return 0
+        return len(self.compile(source).floaters)
 
     def edit_part(self, source: str, part: str, reply: str) -> str:
         if self.allowed is not None and part not in self.allowed:
@@ -184,33 +181,30 @@ class RefineBench:
 
     def set_param(self, source: str, name: str, value: float) -> str:
         from ..errors import EditError
-        from ..gates import check_model
         from ..program.edit import set_params
         try:
             new = set_params(source, {name: value})
         except EditError as exc:
             raise EditRefused(str(exc)) from None
-        before = self.compile(source)
-        try:
-            after = check_model(self._model(new), new)
-        except ProceduraError as exc:
-            raise EditRefused(str(exc)) from None
-        errs = [f for f in after.findings if f.severity == "error"]
-        if len(errs) > len(before.findings):
-            raise EditRefused("it breaks the program: " + findings_text(errs, 6).replace("\n", " "))
+        before, after = self.compile(source), self.compile(new)
+        if len(after.findings) > len(before.findings):
+            raise EditRefused("it breaks the program: " + "; ".join(after.findings[:6]))
         return new
 
     def compile(self, source: str) -> CompileOutcome:
+        """Every gate on ``source`` (one check per program text; the floaters are its N_vis)."""
+        if source in self._outcomes:
+            return self._outcomes[source]
         from ..gates import check_model
-        from ..gates.connectivity import analyse, floater_findings
         try:
             model = self._model(source)
         except ProceduraError as exc:
             return CompileOutcome(False, (str(exc),))
         report = check_model(model, source)
         errs = tuple(f.message for f in report.findings if f.severity == "error")
-        floaters = tuple(f.message for f in floater_findings(analyse(model)))
-        return CompileOutcome(not errs, errs, floaters)
+        floaters = tuple(f.message for f in report.gate("connectivity").findings if f.code == "floater")
+        self._outcomes = {source: CompileOutcome(not errs, errs, floaters)}
+        return self._outcomes[source]
 
     def connectivity(self, source: str) -> CompileOutcome:
         return self.compile(source)

@@ -64,19 +64,16 @@ class Tools:
             return PartVerdict(False, [f for f in model.findings if f.severity == "error"]
                                or [Finding("compile", "the program compiled to no parts")], model=model)
         from ..gates import check_model
-        from ..gates.connectivity import connectivity_gate
-        report = check_model(model, source)
+        report = check_model(model, source, baseline=baseline)
         own = {m.name for m in model.mates if m.child == part}
-        errors, warnings = [], []
         compiled = part in {p.name for p in model.parts}
+        errors, warnings = [], []
         for f in report.findings:
-            if f.code in ("floater", "floater-increase"):
-                continue  # judged below, relative to the baseline
-            if involves(f, part, own):
+            # a rise of N_vis over the baseline fails whichever part floats; otherwise what names it
+            if f.code in ("floater", "floater-increase") or involves(f, part, own):
                 (errors if f.severity == "error" else warnings).append(f)
-        cfind, cres = connectivity_gate(model, baseline=baseline)
-        errors += [f for f in cfind if f.severity == "error"]
-        return PartVerdict(compiled, errors, warnings, int(cres.measured.get("n_vis", 0)), model)
+        n_vis = int(report.gate("connectivity").measured.get("n_vis", 0))
+        return PartVerdict(compiled, errors, warnings, n_vis, model)
 
     def render(self, model: CompiledModel, views: list[str] | None = None, *,
                close_up: str | None = None) -> tuple[list[Image], str]:

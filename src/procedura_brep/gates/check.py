@@ -11,7 +11,7 @@ from typing import Any
 
 from ..config import TOL
 from ..program.model import CompiledModel, Finding
-from .connectivity import analyse, floater_findings
+from .connectivity import analyse, judge
 from .feedback import format_feedback
 from .interference import interference_gate
 from .mate_gate import mate_gate
@@ -76,12 +76,15 @@ class CheckReport:
         }
 
 
-def check_model(model: CompiledModel, source: str | None = None) -> CheckReport:
+def check_model(model: CompiledModel, source: str | None = None, *,
+                baseline: int | None = None) -> CheckReport:
     """Run the compile, mate, pieces, interference and connectivity gates and the mesh metrics.
 
     Args:
         model: a compiled model (its own ``findings`` are the compile gate's).
         source: the program text, used only to add line context to ``feedback``.
+        baseline: the running N_vis before this change (the staged build): floaters fail
+            only if N_vis rises above it (:func:`~procedura_brep.gates.connectivity.judge`).
 
     Returns:
         A :class:`CheckReport`; ``report.as_dict()`` is JSON-serialisable.
@@ -104,8 +107,7 @@ def check_model(model: CompiledModel, source: str | None = None) -> CheckReport:
                          if (mate_res.measured.get(m.name) or {}).get("area_mm2", 0.0) > 0.0
                          and TOL.registration_band_mm <= TOL.connect_mm)
     conn = analyse(model, touching=touching)
-    cfind = floater_findings(conn)
-    conn_res = result("connectivity", cfind, conn.as_dict())
+    _, conn_res = judge(conn, baseline=baseline)
     timings["connectivity"] = time.perf_counter() - t1
     t2 = time.perf_counter()
     metrics = mesh_metrics(model, conn=conn)

@@ -168,7 +168,12 @@ def connectivity_gate(model: CompiledModel, *, baseline: int | None = None) -> t
     Returns:
         (findings, result); ``result.measured`` holds :meth:`Connectivity.as_dict`.
     """
-    conn = analyse(model)
+    return judge(analyse(model), baseline=baseline)
+
+
+def judge(conn: Connectivity, *, baseline: int | None = None) -> tuple[list[Finding], GateResult]:
+    """The connectivity verdict on an analysis: every visible floater is an error, or with a
+    ``baseline`` (delta-aware build mode) only when N_vis rises above it (else a warning)."""
     worse = baseline is None or conn.n_vis > baseline
     findings = floater_findings(conn, severity="error" if worse else "warning")
     if baseline is not None and worse:
