@@ -85,8 +85,7 @@ class Tools:
             buf = io.BytesIO()
             img.save(buf, format="PNG")
             out.append(Image(buf.getvalue(), view))
-        legend = ", ".join(f"{name} #{r:02x}{g:02x}{b:02x}" for name, (r, g, b) in
-                           ((n, _rgb255(c)) for n, c in legend_of(model)))
+        legend = ", ".join(f"{name} #{r:02x}{g:02x}{b:02x}" for name, (r, g, b) in legend_of(model))
         return out, legend
 
     def final_build(self, source: str, out_dir: Path, *, simulate: bool = True,
@@ -95,9 +94,3 @@ class Tools:
         from ..pipeline import build
         return build(out_dir / "program.py", out_dir, source=source, simulate=simulate, formats=formats)
 
-
-def _rgb255(c: Any) -> tuple[int, int, int]:
-    vals = [float(v) for v in c][:3]
-    if all(v <= 1.0 for v in vals):
-        vals = [v * 255 for v in vals]
-    return tuple(int(round(v)) for v in vals)  # type: ignore[return-value]
