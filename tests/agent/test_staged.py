@@ -158,3 +158,19 @@ def test_ablations_no_plan_and_no_review_no_feedback_no_refine(tmp_path):
     calls = [json.loads(x) for x in (out / "transcript.jsonl").read_text().splitlines()]
     assert [c["role"] for c in calls] == ["plan", "build", "build", "build"]
     assert not any(m["images"] for c in calls for m in c["request"]["messages"])
+
+
+def test_tape_options_turn_off_unrecorded_stages(tmp_path):
+    """A tape recorded before the materials/articulation stages existed still replays: those
+    stages are switched off, and a tape that records them keeps them on."""
+    import json
+
+    from procedura_brep.agent.staged import StagedOptions, tape_options
+    tape = tmp_path / "t.jsonl"
+    tape.write_text("\n".join(json.dumps({"v": 1, "role": r, "step": i, "reply": {"text": ""}})
+                              for i, r in enumerate(["plan", "build", "materials"])) + "\n")
+    opts, notes = tape_options(tape, StagedOptions())
+    assert opts.materials and not opts.articulation
+    assert len(notes) == 1 and "articulation" in notes[0]
+    opts, notes = tape_options(tape, StagedOptions(materials=False))
+    assert not opts.materials and not opts.articulation

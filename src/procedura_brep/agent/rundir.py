@@ -17,7 +17,7 @@ from ..errors import ProceduraError
 from ..paths import write_atomic
 from .context import CommittedPart
 
-Stage = Literal["plan", "review", "build", "refine", "finish", "done"]
+Stage = Literal["plan", "review", "build", "refine", "materials", "articulation", "finish", "done"]
 STATE_VERSION = 1
 
 

@@ -19,7 +19,7 @@ import json
 import logging
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -54,6 +54,8 @@ class StagedOptions:
     review: bool = True
     feedback: bool = True
     refine: bool = True
+    materials: bool = True  # the materials stage (model calls with roles in MATERIAL_ROLES)
+    articulation: bool = True  # the articulation planning stage (roles in ARTICULATION_ROLES)
     attempts: int = 3
     plan_attempts: int = 3
     max_edits: int = 6
@@ -426,6 +428,9 @@ def generate_staged(prompt: str | None, out_dir: Path, *, model: str, base_url: 
             provider.skip_before(state.step)
         if prompt is None:
             prompt = tape_prompt(provider.path)
+        options, notes = tape_options(provider.path, options)
+        for note in notes:
+            log.info("%s", note)
     if state is None:
         if not prompt:
             raise StagedError("no prompt: give one, or replay a tape that records one")
@@ -439,6 +444,41 @@ def generate_staged(prompt: str | None, out_dir: Path, *, model: str, base_url: 
         return run.run()
     finally:
         client.close()  # a replay tape checks here that it was fully consumed
+
+
+MATERIAL_ROLES = frozenset({"materials", "material_critic", "subparts"})
+ARTICULATION_ROLES = frozenset({"articulation", "battery_fixer"})
+
+
+def tape_roles(path: Path) -> set[str]:
+    """The roles of the model calls a tape recorded (empty if it cannot be read)."""
+    p = path / "transcript.jsonl" if path.is_dir() else path
+    roles: set[str] = set()
+    try:
+        lines = p.read_text(encoding="utf-8").splitlines()
+    except OSError:
+        return roles
+    for line in lines:
+        try:
+            rec = json.loads(line)
+        except ValueError:
+            continue
+        if isinstance(rec, dict) and isinstance(rec.get("role"), str):
+            roles.add(rec["role"])
+    return roles
+
+
+def tape_options(path: Path, options: StagedOptions) -> tuple[StagedOptions, list[str]]:
+    """``options`` with the model-calling stages a tape did not record switched off, so a tape
+    recorded before a stage existed still replays; returns the notes saying which were."""
+    roles = tape_roles(path)
+    notes = []
+    changes: dict[str, bool] = {}
+    for stage, stage_roles in (("materials", MATERIAL_ROLES), ("articulation", ARTICULATION_ROLES)):
+        if getattr(options, stage) and not roles & stage_roles:
+            changes[stage] = False
+            notes.append(f"the tape records no {stage} calls: the {stage} stage is off for this replay")
+    return (replace(options, **changes) if changes else options), notes
 
 
 def tape_prompt(path: Path) -> str | None:
