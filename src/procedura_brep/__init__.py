@@ -9,6 +9,6 @@ __version__ = "0.1.0"
 
 # Headless GL (MUJOCO_GL / PYOPENGL_PLATFORM = egl) must be set before MuJoCo is imported
 # anywhere in the process; this loads no GL and no CAD kernel.
-from .render._env import ensure_headless as _ensure_headless
+from .headless import ensure_headless as _ensure_headless
 
 _ensure_headless()

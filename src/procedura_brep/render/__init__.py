@@ -2,12 +2,12 @@
 
 Rendering is headless OpenGL 3.3 through moderngl on EGL (Mesa llvmpipe on a CPU machine, or a
 GPU driver), in the same process as MuJoCo; see ``docs/render.md``. Importing this package sets
-the headless environment variables (:mod:`._env`) but loads no GL and no CAD kernel.
+the headless environment variables (:mod:`procedura_brep.headless`) but loads no GL and no CAD kernel.
 """
 
 from __future__ import annotations
 
-from ._env import ensure_headless
+from ..headless import ensure_headless
 
 ensure_headless()
 

@@ -14,7 +14,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from ._env import ensure_headless
+from ..headless import ensure_headless
 from .views import Camera
 
 log = logging.getLogger(__name__)
