@@ -74,6 +74,7 @@ class FakeServer:
     def __init__(self) -> None:
         self.script: deque[Behaviour] = deque()
         self.requests: list[dict[str, Any]] = []
+        self.paths: list[str] = []
         self.headers: list[dict[str, str]] = []
         self.times: list[float] = []
         self.stop = threading.Event()
@@ -105,6 +106,7 @@ class FakeServer:
                 length = int(self.headers.get("Content-Length") or 0)
                 server.times.append(time.monotonic())
                 server.requests.append(json.loads(self.rfile.read(length) or b"{}"))
+                server.paths.append(self.path)
                 server.headers.append({k.lower(): v for k, v in self.headers.items()})
                 b = server.script.popleft() if server.script else Behaviour(500, {"error": "script empty"})
                 self._send(b)

@@ -53,6 +53,8 @@ class Provider(ABC):
     prompt_caching: ClassVar[bool] = False
     #: Makes network calls (subject to the no-network switch).
     network: ClassVar[bool] = False
+    #: Answers ``Settings(output="image")`` requests with a generated PNG.
+    image_output: ClassVar[bool] = False
 
     def __init__(self, model: str) -> None:
         self.model = model

@@ -12,7 +12,7 @@ from dataclasses import replace
 from pathlib import Path
 
 from .base import CONNECT_TIMEOUT_S, Provider, get_provider
-from .errors import LLMError
+from .errors import ConfigError, LLMError, MalformedReplyError
 from .ledger import Ledger
 from .messages import Image, Message, Reply, Request, Settings
 from .transcript import Transcript
@@ -53,9 +53,15 @@ class Client:
             LLMError: The provider failed (the failure is also written to the transcript).
         """
         p = self.provider
+        image = request.settings.output == "image"
+        if image and not p.image_output:
+            raise ConfigError(f"{p.name} cannot generate images; give --image PNG, or an image "
+                              f"model (--image-model openai:gpt-image-1), or none")
         self.ledger.check_budget(p.name, role=request.role, free=p.free)
         try:
             reply = p.complete(request)
+            if image and not reply.images:
+                raise MalformedReplyError(f"{p.name} returned no image for {request.label}")
         except LLMError as exc:
             if self.transcript is not None:
                 self.transcript.record_error(request, exc, model=p.name)

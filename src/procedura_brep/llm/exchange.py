@@ -14,10 +14,11 @@ import re
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Literal, overload
 
 from .base import Provider
-from .errors import ConfigError, ExchangeTimeout
-from .messages import Reply, Request, Usage
+from .errors import ConfigError, ExchangeTimeout, MalformedReplyError
+from .messages import Image, Reply, Request, Usage
 
 __all__ = ["DEFAULT_EXCHANGE_TIMEOUT_S", "ExchangeProvider", "render_request"]
 
@@ -50,12 +51,21 @@ def render_request(request: Request, *, stem: str, image_names: list[str]) -> st
         Markdown.
     """
     s = request.settings
-    lines = [
-        f"# Request {stem} (role: {request.role}, step: {request.step})",
-        "",
-        f"Write your reply to `{stem}.reply.md` in this directory. The whole file is the reply.",
-        f"Settings: max_tokens={s.max_tokens}, temperature={s.temperature}, json_mode={s.json_mode}.",
-    ]
+    if s.output == "image":
+        lines = [
+            f"# Request {stem} (role: {request.role}, step: {request.step}): an image",
+            "",
+            (f"Write one PNG image of {s.image_size} pixels to `{stem}.reply.png` in this "
+             f"directory (save it under another name, then rename it)."),
+        ]
+    else:
+        lines = [
+            f"# Request {stem} (role: {request.role}, step: {request.step})",
+            "",
+            f"Write your reply to `{stem}.reply.md` in this directory. The whole file is the reply.",
+            (f"Settings: max_tokens={s.max_tokens}, temperature={s.temperature}, "
+             f"json_mode={s.json_mode}."),
+        ]
     if s.json_mode:
         lines.append("Reply with a single JSON object and nothing else.")
     lines += ["", "## System", "", request.system or "(none)", ""]
@@ -84,6 +94,7 @@ class ExchangeProvider(Provider):
     json_mode = True
     prompt_caching = False
     network = False
+    image_output = True
 
     def __init__(
         self,
@@ -130,8 +141,15 @@ class ExchangeProvider(Provider):
         os.replace(tmp, self.dir / f"{stem}.request.md")
         return self.dir / f"{stem}.reply.md"
 
-    def wait_for(self, reply_path: Path) -> str:
-        """Wait until ``reply_path`` exists, is non-empty and stops changing; return its text.
+    @overload
+    def wait_for(self, reply_path: Path, *, binary: Literal[False] = False) -> str: ...
+
+    @overload
+    def wait_for(self, reply_path: Path, *, binary: Literal[True]) -> bytes: ...
+
+    def wait_for(self, reply_path: Path, *, binary: bool = False) -> str | bytes:
+        """Wait until ``reply_path`` exists, is non-empty and stops changing; return its text
+        (or its bytes, ``binary``).
 
         Raises:
             ExchangeTimeout: Nothing usable within the timeout.
@@ -146,6 +164,8 @@ class ExchangeProvider(Provider):
                 st = reply_path.stat()
                 sig = (st.st_size, st.st_mtime_ns)
                 if st.st_size > 0 and sig == seen:
+                    if binary:
+                        return reply_path.read_bytes()
                     return reply_path.read_text(encoding="utf-8").strip()
                 seen = sig
             except FileNotFoundError:
@@ -164,7 +184,17 @@ class ExchangeProvider(Provider):
             time.sleep(self.poll_s)
 
     def complete(self, request: Request) -> Reply:
-        """Write the request and wait for the reply file; see :class:`Provider`."""
+        """Write the request and wait for the reply file; see :class:`Provider`.
+
+        An image request (``Settings(output="image")``) waits for ``NNNN-ROLE.reply.png``."""
         start = time.monotonic()
-        text = self.wait_for(self.write_request(request))
+        reply_path = self.write_request(request)
+        if request.settings.output == "image":
+            png_path = reply_path.with_name(reply_path.name.removesuffix(".md") + ".png")
+            png = self.wait_for(png_path, binary=True)
+            if not png.startswith(b"\x89PNG\r\n\x1a\n"):
+                raise MalformedReplyError(f"exchange: {png_path} is not a PNG file")
+            return Reply("", Usage(), time.monotonic() - start, self.name,
+                         images=(Image(png, png_path.name),))
+        text = self.wait_for(reply_path)
         return Reply(text, Usage(), time.monotonic() - start, self.name)

@@ -85,19 +85,27 @@ class Settings:
         max_tokens: Maximum number of output tokens.
         temperature: Sampling temperature; ``None`` leaves the provider default.
         json_mode: Ask for a JSON object reply where the provider supports it.
+        output: ``"text"`` (a chat reply) or ``"image"`` (one generated PNG, in
+            :attr:`Reply.images`; only providers with ``image_output`` answer it).
+        image_size: ``WIDTHxHEIGHT`` of a generated image.
     """
 
     max_tokens: int = 4096
     temperature: float | None = None
     json_mode: bool = False
+    output: Literal["text", "image"] = "text"
+    image_size: str = "1024x1024"
 
     def to_dict(self) -> dict[str, Any]:
-        """The settings as plain data."""
-        return {
+        """The settings as plain data (the image fields only for an image request)."""
+        out: dict[str, Any] = {
             "max_tokens": self.max_tokens,
             "temperature": self.temperature,
             "json_mode": self.json_mode,
         }
+        if self.output != "text":
+            out.update(output=self.output, image_size=self.image_size)
+        return out
 
 
 @dataclass(frozen=True)
@@ -179,6 +187,7 @@ class Reply:
         model: The ``provider:model`` name that answered.
         cost_usd: Cost of the call, filled in by :class:`~procedura_brep.llm.client.Client`;
             ``None`` when unknown.
+        images: Generated images (an ``output="image"`` request).
     """
 
     text: str
@@ -186,3 +195,4 @@ class Reply:
     latency_s: float = 0.0
     model: str = ""
     cost_usd: float | None = None
+    images: tuple[Image, ...] = ()

@@ -9,6 +9,8 @@ and SDK exceptions are mapped onto our one-line error types here.
 
 from __future__ import annotations
 
+import base64
+import binascii
 import json
 import logging
 import time
@@ -18,7 +20,7 @@ from urllib.parse import urlsplit
 from .base import CONNECT_TIMEOUT_S, Provider
 from .errors import ConfigError, ProviderError, one_line
 from .keys import key_vars_for_openai, resolve_key, resolve_openai_base_url
-from .messages import Message, Reply, Request, Usage
+from .messages import Image, Message, Reply, Request, Usage
 from .network import ensure_network_allowed, is_loopback
 from .retry import RetryPolicy, Retryable, call_with_retries, retry_settings, parse_retry_after
 
@@ -148,6 +150,7 @@ class OpenAIProvider(Provider):
     json_mode = True
     prompt_caching = True
     network = True
+    image_output = True  # ``images.generate`` (gpt-image-1, dall-e-3, compatible servers)
 
     def __init__(
         self,
@@ -243,6 +246,29 @@ class OpenAIProvider(Provider):
             return ProviderError(f"{self.endpoint}: {one_line(str(exc), limit=200)}", endpoint=self.endpoint)
         return None
 
+    def image_payload(self, request: Request) -> dict[str, Any]:
+        """The keyword arguments of ``images.generate`` for an image request: the prompt is the
+        system text and the message texts (images of the request are not sent)."""
+        prompt = "\n\n".join(t for t in [request.system, *(m.text for m in request.messages)] if t)
+        return {"model": self.model, "prompt": prompt, "n": 1, "size": request.settings.image_size}
+
+    def _attempt_image(self, body: dict[str, Any]) -> tuple[bytes, Usage]:
+        try:
+            resp = self._client.images.generate(**body)
+        except Exception as exc:  # noqa: BLE001 - mapped below; anything unknown is re-raised
+            mapped = self._map_error(exc)
+            if mapped is None:
+                raise
+            raise mapped from None
+        data = _as_dict(resp)
+        try:
+            png = base64.b64decode(data["data"][0]["b64_json"], validate=True)
+        except (KeyError, IndexError, TypeError, ValueError, binascii.Error) as exc:
+            raise Retryable(f"malformed image reply: {type(exc).__name__}: {exc}",
+                            kind="malformed") from None
+        usage = data.get("usage") or {}
+        return png, Usage(int(usage.get("input_tokens") or 0), 0, int(usage.get("output_tokens") or 0))
+
     def _attempt(self, body: dict[str, Any]) -> tuple[str, Usage]:
         try:
             resp = self._client.chat.completions.create(**body)
@@ -259,8 +285,15 @@ class OpenAIProvider(Provider):
     def complete(self, request: Request) -> Reply:
         """Send ``request`` with bounded retries; see :class:`Provider`."""
         ensure_network_allowed(self.base_url)
-        body = self.payload(request)
         start = time.monotonic()
+        if request.settings.output == "image":
+            body = self.image_payload(request)
+            png, usage = call_with_retries(
+                lambda: self._attempt_image(body), endpoint=self.endpoint, policy=self.policy
+            )
+            return Reply("", usage, time.monotonic() - start, self.name,
+                         images=(Image(png, f"{request.role}.png"),))
+        body = self.payload(request)
         text, usage = call_with_retries(
             lambda: self._attempt(body), endpoint=self.endpoint, policy=self.policy
         )

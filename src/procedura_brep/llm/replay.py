@@ -38,6 +38,7 @@ class ReplayProvider(Provider):
     json_mode = True
     prompt_caching = False
     network = False
+    image_output = True
 
     def __init__(
         self,
@@ -82,7 +83,7 @@ class ReplayProvider(Provider):
             if self.strict:
                 raise ReplayMismatch(msg)
             log.debug("%s (playing the recorded reply anyway)", msg)
-        return Reply(entry.text, entry.usage, 0.0, self.name)
+        return Reply(entry.text, entry.usage, 0.0, self.name, images=entry.images)
 
     def skip_before(self, step: int) -> int:
         """Drop the recorded calls of steps before ``step`` (a resumed run played them already).

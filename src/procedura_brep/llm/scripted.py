@@ -37,6 +37,7 @@ class ScriptedProvider(Provider):
     json_mode = True
     prompt_caching = False
     network = False
+    image_output = True
 
     def __init__(
         self,
@@ -88,7 +89,8 @@ class ScriptedProvider(Provider):
         if callable(item) and not isinstance(item, Reply):
             item = item(request)
         if isinstance(item, Reply):
-            return Reply(item.text, item.usage, item.latency_s, item.model or self.name)
+            return Reply(item.text, item.usage, item.latency_s, item.model or self.name,
+                         images=item.images)
         return Reply(str(item), self.usage, 0.0, self.name)
 
     def assert_consumed(self) -> None:

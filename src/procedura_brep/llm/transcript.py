@@ -17,6 +17,8 @@ instead of ``"reply"``; replay skips such lines.
 
 from __future__ import annotations
 
+import base64
+import binascii
 import hashlib
 import json
 import threading
@@ -26,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from .errors import ConfigError
-from .messages import Reply, Request, Usage
+from .messages import Image, Reply, Request, Usage
 
 __all__ = ["TRANSCRIPT_VERSION", "TapeEntry", "Transcript", "read_tape", "request_digest", "request_to_dict"]
 
@@ -110,6 +112,9 @@ class Transcript:
         """
         obj = self._head(request, model or reply.model)
         obj["reply"] = {"text": reply.text, "usage": reply.usage.to_dict()}
+        if reply.images:  # generated images are the reply itself: always stored
+            obj["reply"]["images"] = [{"name": i.name, "sha256": i.sha256, "data_b64": i.b64()}
+                                      for i in reply.images]
         obj["latency_s"] = round(reply.latency_s, 3)
         obj["cost_usd"] = reply.cost_usd
         obj["time"] = datetime.now(timezone.utc).isoformat(timespec="seconds")
@@ -135,6 +140,7 @@ class TapeEntry:
         request_sha256: Digest of the recorded request (empty if absent).
         text: The reply text.
         usage: The recorded usage.
+        images: Generated images of the reply (an image request).
     """
 
     line: int
@@ -144,6 +150,18 @@ class TapeEntry:
     request_sha256: str
     text: str
     usage: Usage
+    images: tuple[Image, ...] = ()
+
+
+def _reply_images(reply: dict[str, Any]) -> tuple[Image, ...]:
+    """The generated images of a recorded reply (each checked against its digest)."""
+    out = []
+    for i in reply.get("images") or []:
+        img = Image(base64.b64decode(i["data_b64"], validate=True), str(i.get("name", "")))
+        if i.get("sha256") and i["sha256"] != img.sha256:
+            raise ValueError(f"image {i.get('name')!r} does not match its sha256")
+        out.append(img)
+    return tuple(out)
 
 
 def read_tape(path: str | Path) -> list[TapeEntry]:
@@ -180,8 +198,9 @@ def read_tape(path: str | Path) -> list[TapeEntry]:
                     str((obj.get("request") or {}).get("sha256", "")),
                     str(obj["reply"]["text"]),
                     Usage.from_dict(obj["reply"].get("usage")),
+                    _reply_images(obj["reply"]),
                 )
             )
-        except (ValueError, KeyError, TypeError) as exc:
+        except (ValueError, KeyError, TypeError, binascii.Error) as exc:
             raise ConfigError(f"replay tape {p} line {n} is not a transcript record: {exc}") from None
     return entries
