@@ -436,6 +436,10 @@ def generate(
                                                  "$PROCEDURA_BREP_MODEL, then the user config file)")] = None,
     base_url: Annotated[Optional[str], typer.Option("--base-url", help="OpenAI-compatible server URL.")] = None,
     image: Annotated[Optional[Path], typer.Option("--image", help="A reference PNG.")] = None,
+    image_model: Annotated[Optional[str], typer.Option("--image-model", help="provider:model that "
+                                                       "synthesises a reference image when no --image "
+                                                       "is given (default: $PROCEDURA_BREP_IMAGE_MODEL, "
+                                                       "then image_model in the user config file)")] = None,
     max_cost: Annotated[Optional[float], typer.Option("--max-cost", help="Stop before spending more "
                                                                          "than this many USD.")] = None,
     attempts: Annotated[int, typer.Option(min=1, max=10, help="Attempts per part (one-shot: calls).")] = 3,
@@ -456,8 +460,9 @@ def generate(
     from .agent.rundir import ResumeError
     from .errors import InputError
     from .llm import ConfigError, LLMError
-    from .llm.settings import resolve_model
+    from .llm.settings import resolve_image_model, resolve_model
     setting = resolve_model(model, base_url)
+    image_setting = resolve_image_model(image_model)
     if setting.model is None:
         _err("no model: pass --model PROVIDER:MODEL, or set PROCEDURA_BREP_MODEL, or write "
              "model = \"...\" in the user config file (procedura-brep doctor shows where)")
@@ -492,7 +497,8 @@ def generate(
                                      refine=not no_refine, attempts=attempts, simulate=not no_simulate,
                                      formats=fmts or None)
                 sres = generate_staged(prompt, out, model=setting.model, base_url=setting.base_url,
-                                       options=opts, image=png, max_cost_usd=max_cost, timeout_s=timeout,
+                                       options=opts, image=png, image_model=image_setting.model,
+                                       max_cost_usd=max_cost, timeout_s=timeout,
                                        resume=resume is not None,
                                        progress=(lambda stage, text: progress(f"{stage}: {text}")))
                 status, message, calls = sres.status, sres.message, sres.state.step
@@ -578,11 +584,15 @@ def doctor(
 ) -> None:
     """Check the CAD kernel, renderer, MuJoCo, USD, FreeCAD and the provider."""
     from .doctor import run_checks
-    from .llm.settings import config_path, resolve_model
+    from .llm.settings import config_path, resolve_image_model, resolve_model
     setting = resolve_model(model, base_url)
     where = {"none": f"none (no --model, no PROCEDURA_BREP_MODEL, nothing in {config_path()})"}.get(
         setting.source, setting.source)
     typer.echo(f"model in force: {setting.model or '-'} (from {where})")
+    image_setting = resolve_image_model()
+    where = {"none": "none: runs without --image have no reference image"}.get(
+        image_setting.source, f"from {image_setting.source}")
+    typer.echo(f"image model: {image_setting.model or '-'} ({where})")
     checks = run_checks(model=setting.model, base_url=setting.base_url, ping=ping)
     from .text import terminal_safe
     for c in checks:

@@ -115,6 +115,7 @@ def test_second_object_floater_caught_repairs_and_an_ungated_give_up(tmp_path):
     assert result.status == "ok", result.message
     report = json.loads((out / "report.json").read_text())
     assert "restored dropped part knob" in report["plan_repairs"]
+    assert report["reference"]["source"] == "none" and not (out / "reference.png").exists()
     assert [c["name"] for c in report["committed"]] == ["case", "lid", "knob"]
     floated = (out / "history" / "003-knob.attempt-1.txt").read_text()
     assert "knob" in floated and ("detached" in floated or "float" in floated), floated
@@ -174,3 +175,51 @@ def test_tape_options_turn_off_unrecorded_stages(tmp_path):
     assert len(notes) == 1 and "articulation" in notes[0]
     opts, notes = tape_options(tape, StagedOptions(materials=False))
     assert not opts.materials and not opts.articulation
+
+
+def _png_of(width: int, height: int, rgb: tuple[int, int, int]) -> bytes:
+    import zlib
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return len(data).to_bytes(4, "big") + kind + data + zlib.crc32(kind + data).to_bytes(4, "big")
+    raw = b"".join(b"\x00" + bytes(rgb) * width for _ in range(height))
+    ihdr = width.to_bytes(4, "big") + height.to_bytes(4, "big") + bytes([8, 2, 0, 0, 0])
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(raw))
+            + chunk(b"IEND", b""))
+
+
+def test_a_synthesised_reference_grounds_every_stage_and_replays_offline(tmp_path):
+    """Stage 1: a tape that recorded a ``reference_image`` call gives its PNG back; the run keeps
+    it as reference.png, says where it came from, and shows it to the plan and build calls."""
+    import base64
+    import hashlib
+
+    from procedura_brep.agent import reference as ref_mod
+    from procedura_brep.testing.tapes import write_tape
+    png = _png_of(8, 8, (200, 40, 30))
+    rows = [json.loads(x) for x in (TAPES / "box_staged.jsonl").read_text().splitlines()]
+    for r in rows:
+        r["step"] += 1
+    image = {"v": 1, "role": "reference_image", "step": 0, "model": "hand-written",
+             "note": rows[0]["note"] + " A reference_image call (a tiny hand-made PNG) comes first.",
+             "prompt": rows[0]["prompt"], "request": {},
+             "reply": {"text": "", "usage": {}, "images": [
+                 {"name": "reference.png", "sha256": hashlib.sha256(png).hexdigest(),
+                  "data_b64": base64.b64encode(png).decode()}]}}
+    tape = tmp_path / "tape.jsonl"
+    write_tape(tape, [image, *rows])
+    out = tmp_path / "box"
+    result = generate_staged(None, out, model=f"replay:{tape}", options=StagedOptions(simulate=False))
+    assert result.status == "ok", result.message
+    assert (out / "reference.png").read_bytes() == png
+    report = json.loads((out / "report.json").read_text())
+    assert report["reference"]["source"] == "synthesised"
+    assert report["reference"]["sha256"] == hashlib.sha256(png).hexdigest()
+    calls = [json.loads(x) for x in (out / "transcript.jsonl").read_text().splitlines()]
+    digest = hashlib.sha256(png).hexdigest()
+    for role in ("plan", "build"):
+        call = next(c for c in calls if c["role"] == role)
+        shas = [i["sha256"] for m in call["request"]["messages"] for i in m["images"]]
+        assert digest in shas, role
+    assert ref_mod.load(out).png == png  # what --resume grounds the rest of the run on
+

@@ -33,3 +33,22 @@ def test_bad_config_files_are_named(cfg, text, needle):
     with pytest.raises(ConfigError, match=needle) as info:
         resolve_model()
     assert str(cfg) in str(info.value)
+
+
+def test_image_model_from_flag_env_then_config(tmp_path, monkeypatch):
+    from procedura_brep.llm.settings import ENV_CONFIG, ENV_IMAGE_MODEL, resolve_image_model
+    cfg = tmp_path / "config.toml"
+    cfg.write_text('model = "openai:gpt-4o"\nimage_model = "openai:gpt-image-1"\n')
+    monkeypatch.setenv(ENV_CONFIG, str(cfg))
+    monkeypatch.delenv(ENV_IMAGE_MODEL, raising=False)
+    assert resolve_image_model().model == "openai:gpt-image-1" and resolve_image_model().source == str(cfg)
+    monkeypatch.setenv(ENV_IMAGE_MODEL, "exchange:/tmp/x")
+    assert resolve_image_model().model == "exchange:/tmp/x"
+    assert resolve_image_model("openai:dall-e-3").source == "--image-model"
+    cfg.write_text('image_modle = "typo"\n')
+    monkeypatch.delenv(ENV_IMAGE_MODEL)
+    import pytest
+
+    from procedura_brep.llm import ConfigError
+    with pytest.raises(ConfigError, match="unknown key.*image_modle.*image_model"):
+        resolve_image_model()

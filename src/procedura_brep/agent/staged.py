@@ -31,7 +31,9 @@ from ..program.model import CompiledModel
 from ..program.splice import SpliceError, empty_program, parse_reply, splice
 from .context import CommittedPart, build_request
 from .plan import Plan, PlanError, PlannedPart, parse_plan
+from . import reference as reference_image
 from .prompts import reference, template
+from .reference import Reference
 from .refine import findings_text, refine
 from .review import enforce_review
 from .rundir import RunDir, RunState
@@ -101,6 +103,7 @@ class StagedRun:
         self.name = "model"
         self._model: CompiledModel | None = None
         self.refine_report: dict[str, Any] = {}
+        self.reference_info: dict[str, Any] = {"source": "file" if image else "none"}
 
     # model calls -----------------------------------------------------------------------------
 
@@ -377,6 +380,7 @@ class StagedRun:
         per_part = list(st.per_part_s.values())
         report.update({
             "status": result.status, "mode": "staged",
+            "reference": self.reference_info,
             "options": {k: v for k, v in self.options.__dict__.items() if k != "views"},
             "prompt": st.prompt,
             "plan": st.plan, "plan_repairs": st.repairs,
@@ -403,6 +407,7 @@ def _body_name(text: str) -> str | None:
 
 def generate_staged(prompt: str | None, out_dir: Path, *, model: str, base_url: str | None = None,
                     options: StagedOptions = StagedOptions(), image: bytes | None = None,
+                    image_model: str | None = None,
                     max_cost_usd: float | None = None, timeout_s: float | None = None,
                     resume: bool = False, progress: Progress | None = None) -> StagedResult:
     """Run (or resume) a staged generation into ``out_dir`` with the model ``model``.
@@ -411,7 +416,10 @@ def generate_staged(prompt: str | None, out_dir: Path, *, model: str, base_url: 
         prompt: the object to build (None on resume, or with a replay tape: the tape's own).
         out_dir: the run directory.
         model: ``provider:model``.
-        resume: continue the run recorded in ``out_dir/state.json``.
+        image: a reference PNG (stage 1); without one, ``image_model`` (``provider:model`` of
+            an image-capable provider) synthesises one, and a replayed tape that recorded a
+            ``reference_image`` call gives its image back; else the run has no reference.
+        resume: continue the run recorded in ``out_dir/state.json`` (with its reference).
 
     Raises:
         ConfigError / ProviderError: bad model name or key, unreachable endpoint (one line).
@@ -438,12 +446,43 @@ def generate_staged(prompt: str | None, out_dir: Path, *, model: str, base_url: 
     out_dir.mkdir(parents=True, exist_ok=True)
     client = Client(provider, ledger=Ledger(max_cost_usd=max_cost_usd),
                     transcript=Transcript(out_dir / "transcript.jsonl"))
-    run = StagedRun(state.prompt, out_dir, client=client, options=options, image=image,
-                    progress=progress, state=state)
     try:
+        ref = _reference(client, state, out_dir, image=image, image_model=image_model,
+                         resume=resume, progress=progress)
+        run = StagedRun(state.prompt, out_dir, client=client, options=options, image=ref.png,
+                        progress=progress, state=state)
+        run.reference_info = ref.as_dict()
         return run.run()
     finally:
         client.close()  # a replay tape checks here that it was fully consumed
+
+
+def _reference(client: Client, state: RunState, out_dir: Path, *, image: bytes | None,
+               image_model: str | None, resume: bool, progress: Progress | None) -> Reference:
+    """Stage 1: the run's reference image (see :mod:`procedura_brep.agent.reference`)."""
+    from ..llm import preflight
+    from ..llm.replay import ReplayProvider
+    if resume:
+        return reference_image.load(out_dir)
+    if image is not None:
+        ref = Reference(image, "file")
+    else:
+        ref = Reference(None, "none")
+        image_client = None
+        if image_model:
+            image_client = Client(preflight(image_model), ledger=client.ledger,
+                                     transcript=client.transcript)
+        elif isinstance(client.provider, ReplayProvider) and \
+                reference_image.ROLE in tape_roles(client.provider.path):
+            image_client = client
+        if image_client is not None:
+            if progress is not None:
+                progress("reference", f"synthesising a reference image with {image_client.provider.name}")
+            ref = reference_image.synthesise(image_client, state.prompt, step=state.step)
+            state.step += 1
+    ref.save(out_dir)
+    RunDir(out_dir).save(state)
+    return ref
 
 
 MATERIAL_ROLES = frozenset({"materials", "material_critic", "subparts"})

@@ -10,6 +10,10 @@
        base_url = "http://localhost:11434/v1"   # optional
 
 The result says where the model came from, so ``doctor`` can show which setting is in force.
+
+The image model that synthesises a reference picture when no ``--image`` is given resolves the
+same way: ``--image-model``, then ``PROCEDURA_BREP_IMAGE_MODEL``, then ``image_model = "..."`` in
+the config file; unset means no synthesised reference.
 """
 
 from __future__ import annotations
@@ -21,9 +25,12 @@ from pathlib import Path
 
 from .errors import ConfigError
 
-__all__ = ["ENV_CONFIG", "ENV_MODEL", "ModelSetting", "config_path", "resolve_model"]
+__all__ = ["ENV_CONFIG", "ENV_IMAGE_MODEL", "ENV_MODEL", "ModelSetting", "config_path",
+           "resolve_image_model", "resolve_model"]
 
 ENV_MODEL = "PROCEDURA_BREP_MODEL"
+ENV_IMAGE_MODEL = "PROCEDURA_BREP_IMAGE_MODEL"
+_KEYS = ("model", "base_url", "image_model")
 ENV_CONFIG = "PROCEDURA_BREP_CONFIG"
 
 
@@ -53,12 +60,13 @@ def _read_config(path: Path) -> dict:
         raise ConfigError(f"cannot read the config file {path}: {exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"config file {path} is not valid TOML: {exc}") from None
-    for key in ("model", "base_url"):
+    for key in _KEYS:
         if key in data and not isinstance(data[key], str):
             raise ConfigError(f"config file {path}: {key} must be a string, got {data[key]!r}")
-    unknown = sorted(set(data) - {"model", "base_url"})
+    unknown = sorted(set(data) - set(_KEYS))
     if unknown:
-        raise ConfigError(f"config file {path}: unknown key(s) {', '.join(unknown)}; keys: model, base_url")
+        raise ConfigError(f"config file {path}: unknown key(s) {', '.join(unknown)}; keys: "
+                          f"{', '.join(_KEYS)}")
     return data
 
 
@@ -78,3 +86,22 @@ def resolve_model(model: str | None = None, base_url: str | None = None) -> Mode
     if data.get("model"):
         return ModelSetting(data["model"], base_url or data.get("base_url"), str(path))
     return ModelSetting(None, base_url, "none")
+
+
+def resolve_image_model(model: str | None = None) -> ModelSetting:
+    """The image model: the argument, else ``PROCEDURA_BREP_IMAGE_MODEL``, else the config
+    file's ``image_model``; ``model=None`` with source ``none`` when none is set.
+
+    Raises:
+        ConfigError: the config file exists but cannot be read or has unknown keys.
+    """
+    if model:
+        return ModelSetting(model, None, "--image-model")
+    env = os.environ.get(ENV_IMAGE_MODEL, "").strip()
+    if env:
+        return ModelSetting(env, None, ENV_IMAGE_MODEL)
+    path = config_path()
+    data = _read_config(path)
+    if data.get("image_model"):
+        return ModelSetting(data["image_model"], None, str(path))
+    return ModelSetting(None, None, "none")
