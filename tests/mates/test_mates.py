@@ -184,3 +184,42 @@ def test_zero_effort_or_velocity_is_a_range_error(worker, options, message):
     m = worker.compile(program("revolute", 10.0, "clearance", options), CompileOptions())
     assert not m.ok
     assert any(message in f.message and f.mate == "block_foot" for f in m.findings), m.findings
+
+
+def _stud_centres(shape) -> list[tuple[float, float]]:
+    out = []
+    for s in shape.solids():
+        c = s.bounding_box().center()
+        out.append((round(c.X, 6), round(c.Y, 6)))
+    return sorted(out)
+
+
+def test_a_single_bolt_sits_on_the_frame_axis():
+    from procedura_brep.mates.features import build
+    from procedura_brep.mates.vocabulary import check_options
+    opts = check_options("m", TYPES["bolt_pattern"], "clearance", {"count": 1, "pcd": 80.0})
+    male, female = build("bolt_pattern", 8.0, iso273_fit(8.0), opts)
+    assert _stud_centres(male) == [(0.0, 0.0)]
+    assert len(female.solids()) == 1
+    with pytest.raises(Exception, match="count = 0 is outside"):
+        check_options("m", TYPES["bolt_pattern"], "clearance", {"count": 0})
+
+
+def test_flange_angle0_turns_the_stud_ring():
+    from procedura_brep.mates.features import build
+    from procedura_brep.mates.vocabulary import check_options
+    fit = iso286(40.0, "location")
+    base = build("flange", 40.0, fit, check_options("m", TYPES["flange"], "location", {"count": 4}))
+    turned = build("flange", 40.0, fit, check_options("m", TYPES["flange"], "location",
+                                                      {"count": 4, "angle0": 45.0}))
+    r = 1.5 * 40.0 / 2  # the default pcd is 1.5 d
+    ring = [s for s in _stud_centres(turned[0]) if abs(s[0]) + abs(s[1]) > 1e-3]
+    assert ring == sorted((round(x, 6), round(y, 6)) for x, y in
+                          [(r * math.cos(math.radians(a)), r * math.sin(math.radians(a)))
+                           for a in (45, 135, 225, 315)])
+    assert ring != [s for s in _stud_centres(base[0]) if abs(s[0]) + abs(s[1]) > 1e-3]
+
+
+def iso273_fit(d: float):
+    from procedura_brep.mates import iso273
+    return iso273(d, "clearance")

@@ -57,7 +57,8 @@ def seat_face(d: float, fit: Fit, o: dict[str, Any]) -> Halves:
 def bolt_pattern(d: float, fit: Fit, o: dict[str, Any]) -> Halves:
     pcd = o.get("pcd") or 4.0 * d
     length = o.get("length") or 1.5 * d
-    locs = _ring(o["count"], pcd, o.get("angle0", 0.0))
+    count = o["count"]
+    locs = [Rot(0, 0, 0)] if count == 1 else _ring(count, pcd, o.get("angle0", 0.0))
     studs = [loc * _pin(d, length) for loc in locs]
     holes = [loc * Cylinder(fit.hole / 2, length + _relief(d), align=TOP) for loc in locs]
     return Part() + studs, Part() + holes
@@ -71,7 +72,7 @@ def flange(d: float, fit: Fit, o: dict[str, Any]) -> Halves:
     hole = iso273(bolt, "clearance" if fit.fit == "clearance" else "location")
     pcd = o.get("pcd") or 1.5 * d
     length = 1.5 * bolt
-    for loc in _ring(o["count"], pcd, 0.0):
+    for loc in _ring(o["count"], pcd, o.get("angle0", 0.0)):
         male += loc * _pin(bolt, length)
         female += loc * Cylinder(hole.hole / 2, length + _relief(bolt), align=TOP)
     return male, female

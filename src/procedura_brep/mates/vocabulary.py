@@ -100,7 +100,8 @@ STATIC_DOF = Dof()
 
 TYPES: dict[str, MateType] = {t.name: t for t in [
     MateType("bolt_pattern", "static", STATIC_DOF, ("clearance", "location"), "clearance",
-             {"count": Option(4, 2, 36, integer=True, doc="number of bolts"),
+             {"count": Option(4, 1, 36, integer=True,
+                              doc="number of bolts (1: a single bolt on the frame axis, pcd unused)"),
               "pcd": Option(None, 1.0, 5000.0, doc="pitch circle diameter, mm (default 4 d)"),
               "length": Option(None, 0.1, 5000.0, doc="stud length below the frame, mm (default 1.5 d)"),
               "angle0": Option(0.0, -360.0, 360.0, doc="angle of the first bolt from +X, deg"),
@@ -117,12 +118,14 @@ TYPES: dict[str, MateType] = {t.name: t for t in [
              {"count": Option(6, 3, 36, integer=True, doc="number of flange studs"),
               "pcd": Option(None, 1.0, 5000.0, doc="stud pitch circle, mm (default 1.5 d)"),
               "bolt": Option(None, 1.6, 64.0, doc="stud M-size, mm (default from d)"),
+              "angle0": Option(0.0, -360.0, 360.0, doc="angle of the first stud from +X, deg"),
               "features": _FEAT, "male": _MALE},
              doc="pilot spigot of diameter d plus a ring of studs, into a pilot recess and holes"),
     MateType("tab_slot", "static", STATIC_DOF, ("clearance", "location", "press"), "location",
              {"thickness": Option(None, 0.1, 1000.0, doc="tab thickness, mm (default 0.25 d)"),
               "depth": _DEPTH, "features": _FEAT, "male": _MALE},
-             doc="rectangular tab of width d (along frame X) in a matching slot"),
+             doc="rectangular tab of width d along frame X and thickness along frame Y, reaching "
+                 "depth along -Z from the frame into a matching slot in the parent"),
     MateType("press_fit", "static", STATIC_DOF, ("press", "location"), "press",
              {"depth": _DEPTH, "features": _FEAT, "male": _MALE},
              doc="pin of diameter d pressed into an interference bore"),
@@ -150,7 +153,10 @@ TYPES: dict[str, MateType] = {t.name: t for t in [
               "effort": Option(100.0, 0.0, 1e6, open_low=True, doc="max force, N (> 0)"),
               "velocity": Option(0.1, 0.0, 1e3, open_low=True, doc="max speed, m/s (> 0)"),
               "depth": _DEPTH, "features": _FEAT, "male": _MALE},
-             doc="1 translational DOF along frame Z: a square guide bar of width d in a slot"),
+             doc="1 translational DOF along frame Z: a square guide bar of side d reaching depth "
+                 "along -Z into a slot that is deepened by the negative travel; positive values "
+                 "move the child out along +Z, so keep the upper limit below depth or the bar "
+                 "leaves its slot (for a long slide, use features=False and model the ways)"),
     MateType("spherical", "kinematic", Dof(rotation=("x", "y", "z")), ("clearance", "location"),
              "clearance",
              {"cone": Option(30.0, 0.1, 180.0, doc="cone half-angle limit, deg"),
