@@ -130,3 +130,26 @@ def test_sigint_over_a_good_build_keeps_it(tmp_path):
     report = json.loads((out / "report.json").read_text())
     assert report["status"] == "interrupted" and report["kept_previous"] is True
     assert report["previous"]["status"] == "ok" and report["previous"]["program"] == "lamp"
+
+
+def test_ctrl_c_while_a_staged_run_waits_for_the_model_writes_an_interrupted_report(tmp_path):
+    """The model is slow (an exchange nobody answers): Ctrl-C ends generate with 130 and
+    report.json says interrupted, in which stage, and how to resume."""
+    xchg, out = tmp_path / "xchg", tmp_path / "out"
+    mark = uuid.uuid4().hex
+    proc = subprocess.Popen([sys.executable, "-m", "procedura_brep.cli", "generate", "a small box",
+                             "--model", f"exchange:{xchg}", "-o", str(out)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, env=_env(mark), cwd=ROOT,
+                            start_new_session=True)
+    deadline = time.monotonic() + 60
+    while not list(xchg.glob("*-plan.request.md")) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert list(xchg.glob("*-plan.request.md")), "the run never asked for a plan"
+    os.killpg(proc.pid, signal.SIGINT)
+    t = time.monotonic()
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 130, err
+    assert time.monotonic() - t < BOUND_S
+    report = json.loads((out / "report.json").read_text())
+    assert report["status"] == "interrupted" and report["mode"] == "staged"
+    assert "plan stage" in report["reason"] and "--resume" in report["reason"]

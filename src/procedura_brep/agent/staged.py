@@ -23,6 +23,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
+from .. import interrupt
 from ..errors import ProceduraError
 from ..llm import Client, Image, Message, Request, Settings
 from ..llm.errors import BudgetExceeded
@@ -373,6 +374,15 @@ class StagedRun:
         self._write_report(result)
         return result
 
+    def interrupted(self) -> None:
+        """Ctrl-C or SIGTERM: report.json says ``interrupted`` and where (state.json already holds
+        every committed part, so ``--resume`` continues from here)."""
+        st = self.state
+        self._write_report(StagedResult("interrupted", self.out_dir, st, refine=self.refine_report,
+                                        message=f"interrupted during the {st.stage} stage "
+                                                f"(model call {st.step}); continue with --resume "
+                                                f"{self.out_dir}"))
+
     def _write_report(self, result: StagedResult) -> None:
         path = self.out_dir / "report.json"
         report = json.loads(path.read_text(encoding="utf-8")) if path.exists() else {}
@@ -452,7 +462,12 @@ def generate_staged(prompt: str | None, out_dir: Path, *, model: str, base_url: 
         run = StagedRun(state.prompt, out_dir, client=client, options=options, image=ref.png,
                         progress=progress, state=state)
         run.reference_info = ref.as_dict()
-        return run.run()
+        with interrupt.on_interrupt(run.interrupted):
+            try:
+                return run.run()
+            except KeyboardInterrupt:  # library use: no watcher thread, Ctrl-C raised here
+                run.interrupted()
+                raise
     finally:
         client.close()  # a replay tape checks here that it was fully consumed
 
