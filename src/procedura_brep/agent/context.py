@@ -78,8 +78,10 @@ def build_request(*, step: int, system: str, prompt: str, plan: Plan, header: st
             Message.user(program_log(header, committed))]
     tail = part_slice(plan, part)
     if views:
+        names = [img.name for img in views]
         tail += ("\n\nRenders of the build so far, one colour per part" +
-                 (f" ({legend})" if legend else "") + ".")
+                 (f" ({legend})" if legend else "") + "." +
+                 (f" Views, in order: {', '.join(names)}." if all(names) else ""))
     msgs.append(Message.user(tail, *views))
     return Request("build", step, system, (*msgs, *history), settings or Settings(max_tokens=8000))
 

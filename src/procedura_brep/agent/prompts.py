@@ -77,7 +77,13 @@ def conventions() -> str:
         "Motion: a revolute turns the child about +Z of its frame, positive by the right-hand rule; a "
         "prismatic moves the child along +Z (away from the parent) for positive values; a spherical "
         "joint turns about the frame origin within `cone`. `home` (the pose the child is built in) "
-        "must lie inside `limits`.",
+        "must lie inside `limits`. The MuJoCo battery sweeps each joint through its limits on its own "
+        "(the other joints at home), so every moving part must clear its neighbours over its whole "
+        "range.",
+        "Coordinates: a part function returns its solid in any coordinates you like (world "
+        "coordinates are simplest); its frames are given in the same coordinates; the compiler then "
+        "moves each part so its mate frames coincide with its partners'. A part that slides or turns "
+        "must still touch its parent (with features=False, model the contact yourself).",
         "The language: params are numbers or expressions of numbers, earlier params and `math`; helpers "
         "and parts are plain functions (loops, comprehensions, conditionals are fine); frames and "
         "assembly may use expressions and loops too. Forbidden: imports other than `math`, names or "
