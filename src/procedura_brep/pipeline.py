@@ -23,15 +23,15 @@ from typing import Any
 
 from . import interrupt
 from .errors import CompileError, OutputError, ProceduraError
-from .export.records import mates_json, part_rows  # noqa: F401 - their old home
+from .export.records import mates_json, part_rows
 from .findings import Finding, blocking, failed
 from .paths import program_name
 from .program.model import CompiledModel
-from .rundir import Staging
 from .run import steps
 from .run.report import describe, reason, run_report
 from .run.status import Status, exit_code
-from .run.steps import dump_json  # noqa: F401 - re-exported (agent.oneshot)
+from .run.steps import dump_json
+from .rundir import Staging
 
 log = logging.getLogger(__name__)
 

@@ -17,7 +17,6 @@ import numpy as np
 
 from ..findings import Finding, cap_text, failed  # noqa: F401 - Finding, cap_text re-exported
 
-
 _MESHES: dict[str, Any] = {}
 _MESH_CACHE_SIZE = 512
 

@@ -27,7 +27,7 @@ _LAZY = {
     "run_report": ".report", "describe": ".report", "reason": ".report",
 }
 
-__all__ = sorted(_LAZY)
+__all__ = list(_LAZY)
 
 
 def __getattr__(name: str) -> Any:

@@ -40,7 +40,12 @@ def compile_model(source: str, *, name: str = "model", warm: bool = False) -> Co
         CompileError: the worker refused or could not compile the program (its ``findings``
             say why).
     """
-    from ..program.sandbox import compile_source, default_worker, kill_default_worker, refuse_oversized
+    from ..program.sandbox import (
+        compile_source,
+        default_worker,
+        kill_default_worker,
+        refuse_oversized,
+    )
     if warm:
         from .. import kernel
         refuse_oversized(source)  # before paying for the worker and the warm-up
