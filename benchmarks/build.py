@@ -54,7 +54,8 @@ def cold_build(name: str, formats: str | None, *, simulate: bool = False,
         proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
         dt = time.perf_counter() - t
         if proc.returncode != 0:
-            raise SystemExit(f"build of {name} failed: {proc.stderr.strip() or proc.stdout.strip()}")
+            raise SystemExit(f"build of {name} with {src or 'this tree'} failed: "
+                             f"{proc.stderr.strip() or proc.stdout.strip()}")
         timings = json.loads((Path(out) / "report.json").read_text())["timings"]
     row = {k: float(v) for k, v in timings.items() if k.endswith("_s")}
     row["wall_s"] = dt
@@ -70,7 +71,10 @@ def stage_line(rows: list[dict[str, float]]) -> str:
 
 
 def export_tree(rev: str, into: Path) -> Path:
-    """The ``src/`` of git revision ``rev`` under ``into``."""
+    """The ``src/`` of git revision ``rev`` under ``into`` (made world-readable: the sandbox's
+    compile child may run as an unprivileged user, and a tree it cannot read would make it
+    import another copy of the package)."""
+    into.chmod(0o755)
     tar = into / "tree.tar"
     with open(tar, "wb") as fh:
         subprocess.run(["git", "-C", str(ROOT), "archive", rev, "src"], stdout=fh, check=True)
