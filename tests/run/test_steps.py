@@ -105,3 +105,23 @@ def test_battery_findings_name_each_failed_check():
     assert fs[0].message == "battery B2 (joint sweeps) failed: joint j"
     assert fs[1].message == "battery B7 failed: no message"
     assert failures({"checks": report["checks"][:1]}) == []
+
+
+def test_build_gates_before_it_exports(tmp_path, worker):
+    lines: list[str] = []
+    res = build(LAMP, tmp_path / "run", formats=("step",), progress=lines.append)
+    assert res.ok and res.exit_code == 0
+    assert lines == ["compiling lamp", "running the gates", "writing 3 parts as step",
+                     f"saving {tmp_path / 'run'}"]
+    assert list(res.report["timings"]).index("gates_s") < list(res.report["timings"]).index("export_s")
+
+
+def test_report_is_laid_out_once():
+    from procedura_brep.findings import Finding
+    from procedura_brep.run.report import run_report
+    from procedura_brep.run.status import Status
+    rep = run_report(Status.FAILED, None, [Finding("compile", "no parts")], {"total_s": 1.0})
+    assert list(rep) == ["status", "program", "findings", "timings"]
+    assert rep["status"] == "failed" and type(rep["status"]) is str and rep["program"] is None
+    rep = run_report(Status.OK, None, [], {}, sections={"gates": {"passed": True}}, complete=True)
+    assert list(rep) == ["status", "program", "findings", "timings", "gates", "complete"]
