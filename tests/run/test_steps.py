@@ -125,3 +125,17 @@ def test_report_is_laid_out_once():
     assert rep["status"] == "failed" and type(rep["status"]) is str and rep["program"] is None
     rep = run_report(Status.OK, None, [], {}, sections={"gates": {"passed": True}}, complete=True)
     assert list(rep) == ["status", "program", "findings", "timings", "gates", "complete"]
+
+
+def test_cli_keep_failed_exports_a_model_that_fails_its_gates(tmp_path, worker):
+    from typer.testing import CliRunner
+
+    from procedura_brep.cli import app
+    lifted = tmp_path / "lifted.py"
+    lifted.write_text(LIFTED)
+    for flag, files in (([], ["program.py", "report.json"]),
+                        (["--keep-failed"], ["mates.json", "model.step", "program.py", "report.json"])):
+        out = tmp_path / f"o{len(flag)}"
+        res = CliRunner().invoke(app, ["build", str(lifted), "-o", str(out), "--formats", "step", "-q", *flag])
+        assert res.exit_code == 1 and "post is not seated on base" in res.stderr, res.output
+        assert _tree(out) == files
