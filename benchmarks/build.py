@@ -1,40 +1,86 @@
-"""Build benchmark (issue 2 item 9).
+"""Build benchmark (issue 2 item 9, issue 12 items 1 and 10).
 
 For each golden program: the cold ``procedura-brep build`` time, measured from process start to
-exit (imports and worker start included, every export written), and the per-part compile time
-in a warm worker (median over runs; each run compiles the whole program with the part cache
-off, and a part's time is its function plus its features). Targets: the whole build of
-golden/rover under 10 s wall on a 2-core machine; a part's compile well under a second.
+exit (imports and worker start included, every export written), where that time goes by stage
+(from report.json's timings: ``imports`` is the wall time before ``build`` starts, i.e. process
+start, imports and argument parsing; then compile (worker start and warm-up included), gates,
+each export (``export`` is their sum, ``articulate`` the shared tree and masses), evidence,
+battery; ``total`` is ``build`` itself), and
+the per-part compile time in a warm worker (median over runs; each run compiles the whole
+program with the part cache off, and a part's time is its function plus its features).
 
-Run: ``python benchmarks/build.py [--runs 3] [--formats step]``.
+``--before REV`` also builds with the package as it was at git revision REV (exported to a
+temporary folder), the same way, and prints both: the before/after figure of a change.
+
+Run: ``python benchmarks/build.py [--runs 3] [--formats step] [--simulate] [--only rover]
+[--before HEAD~1] [--no-parts]``.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import os
 import statistics
 import subprocess
 import sys
+import tarfile
 import tempfile
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 GOLDEN = ("rover", "arm", "vise")
+#: Stages printed in this order (report.json timing keys); any other ``*_s`` key follows.
+STAGES = ("compile_s", "gates_s", "export_articulate_s", "export_step_s", "export_obj_s",
+          "export_glb_s", "export_usd_s", "export_urdf_s", "export_mjcf_s", "export_s",
+          "evidence_s", "battery_s", "total_s")
 
 
-def cold_build(name: str, formats: str | None) -> float:
+def cold_build(name: str, formats: str | None, *, simulate: bool = False,
+               src: Path | None = None) -> dict[str, float]:
+    """One cold build in a fresh process: ``{"wall_s", "imports_s", <report timings>}``."""
     with tempfile.TemporaryDirectory() as out:
         cmd = [sys.executable, "-m", "procedura_brep.cli", "build", str(ROOT / "golden" / name / "program.py"),
-               "-o", out]
+               "-o", out, "-q"]
         if formats:
             cmd += ["--formats", formats]
+        if simulate:
+            cmd += ["--simulate"]
+        env = dict(os.environ)
+        if src is not None:
+            env["PYTHONPATH"] = str(src)
         t = time.perf_counter()
-        proc = subprocess.run(cmd, capture_output=True, text=True)
+        proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
         dt = time.perf_counter() - t
         if proc.returncode != 0:
-            raise SystemExit(f"build of {name} failed: {proc.stderr.strip() or proc.stdout.strip()}")
-        return dt
+            raise SystemExit(f"build of {name} with {src or 'this tree'} failed: "
+                             f"{proc.stderr.strip() or proc.stdout.strip()}")
+        timings = json.loads((Path(out) / "report.json").read_text())["timings"]
+    row = {k: float(v) for k, v in timings.items() if k.endswith("_s")}
+    row["wall_s"] = dt
+    row["imports_s"] = dt - row.get("total_s", 0.0)  # process start to build(): imports, parsing
+    return row
+
+
+def stage_line(rows: list[dict[str, float]]) -> str:
+    """Median per stage over ``rows``, in pipeline order."""
+    keys = ["imports_s", *[k for k in STAGES if any(k in r for r in rows)],
+            *sorted({k for r in rows for k in r} - set(STAGES) - {"imports_s", "wall_s"})]
+    return ", ".join(f"{k[:-2]} {statistics.median(r.get(k, 0.0) for r in rows):.2f}" for k in keys)
+
+
+def export_tree(rev: str, into: Path) -> Path:
+    """The ``src/`` of git revision ``rev`` under ``into`` (made world-readable: the sandbox's
+    compile child may run as an unprivileged user, and a tree it cannot read would make it
+    import another copy of the package)."""
+    into.chmod(0o755)
+    tar = into / "tree.tar"
+    with open(tar, "wb") as fh:
+        subprocess.run(["git", "-C", str(ROOT), "archive", rev, "src"], stdout=fh, check=True)
+    with tarfile.open(tar) as tf:
+        tf.extractall(into, filter="data")
+    return into / "src"
 
 
 def part_times(name: str, runs: int) -> dict[str, float]:
@@ -54,21 +100,38 @@ def part_times(name: str, runs: int) -> dict[str, float]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description="cold build and warm per-part compile times")
+    ap = argparse.ArgumentParser(description="cold build by stage, before/after, and warm per-part compile times")
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--formats", default=None, help="exports for the cold build (default: all)")
+    ap.add_argument("--simulate", action="store_true", help="cold build with the MuJoCo battery")
+    ap.add_argument("--only", default=None, help="one golden (default: all three)")
+    ap.add_argument("--before", default=None, metavar="REV", help="also build with src/ at git REV")
+    ap.add_argument("--no-parts", action="store_true", help="skip the warm per-part compile times")
     args = ap.parse_args()
-    for name in GOLDEN:
-        if not (ROOT / "golden" / name / "program.py").exists():
-            print(f"{name}: missing")
-            continue
-        colds = [cold_build(name, args.formats) for _ in range(args.runs)]
-        per = part_times(name, args.runs)
-        worst = max(per, key=per.get)
-        print(f"{name}: cold build median {statistics.median(colds):.2f} s (min {min(colds):.2f}, "
-              f"{args.runs} runs, formats {args.formats or 'all'}); {len(per)} parts, warm per-part "
-              f"compile median {statistics.median(per.values()) * 1000:.0f} ms, max "
-              f"{per[worst] * 1000:.0f} ms ({worst})", flush=True)
+    names = (args.only,) if args.only else GOLDEN
+    with tempfile.TemporaryDirectory() as tmp:
+        trees: list[tuple[str, Path | None]] = [("after", ROOT / "src")]
+        if args.before:
+            trees.insert(0, (f"before ({args.before})", export_tree(args.before, Path(tmp))))
+        for name in names:
+            if not (ROOT / "golden" / name / "program.py").exists():
+                print(f"{name}: missing")
+                continue
+            what = f"formats {args.formats or 'all'}{', battery' if args.simulate else ''}"
+            for label, src in trees:
+                rows = []
+                for _ in range(args.runs):
+                    rows.append(cold_build(name, args.formats, simulate=args.simulate, src=src))
+                walls = [r["wall_s"] for r in rows]
+                print(f"{name} {label}: cold build median {statistics.median(walls):.2f} s (min "
+                      f"{min(walls):.2f}, {args.runs} runs, {what}); by stage (median s): "
+                      f"{stage_line(rows)}", flush=True)
+            if not args.no_parts:
+                per = part_times(name, args.runs)
+                worst = max(per, key=per.get)
+                print(f"{name}: {len(per)} parts, warm per-part compile median "
+                      f"{statistics.median(per.values()) * 1000:.0f} ms, max {per[worst] * 1000:.0f} ms "
+                      f"({worst})", flush=True)
 
 
 if __name__ == "__main__":

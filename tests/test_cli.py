@@ -254,7 +254,7 @@ def test_readme_documents_exit_codes_3_and_130():
 def no_compile(monkeypatch):
     def fail(*a, **k):
         raise AssertionError("compiled although the arguments were invalid")
-    monkeypatch.setattr("procedura_brep.pipeline.compile_file", fail)
+    monkeypatch.setattr("procedura_brep.run.steps.compile_model", fail)
 
 
 def test_render_bad_view_or_mode_refused_before_compile(tmp_path, no_compile):

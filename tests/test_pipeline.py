@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from procedura_brep import pipeline
 from procedura_brep.pipeline import build
+from procedura_brep.run import steps
 
 LAMP = Path(__file__).parent / "program" / "lamp.py"
 BROKEN = LAMP.read_text().replace("return Box(90, 14, 10", "return Box(90, 14, -10")
@@ -73,13 +73,39 @@ def test_rebuild_with_fewer_formats_removes_stale_exports(good):
     assert not [n for n in names if n.startswith(".")]
 
 
-def test_gates_failed_build_is_complete_and_replaces_the_old_one(good):
-    lifted = LAMP.read_text().replace("foot=Location((0, 0, 0))", "foot=Location((0, 0, -0.5))")
-    res = build(LAMP, good, source=lifted, formats=("step",))
-    assert res.status == "gates_failed"
+LIFTED = LAMP.read_text().replace("foot=Location((0, 0, 0))", "foot=Location((0, 0, -0.5))")
+
+
+def test_gates_failed_build_exports_nothing_and_keeps_the_old_one(good):
+    before = _files(good)
+    res = build(LAMP, good, source=LIFTED, formats=("step",))
+    assert res.status == "gates_failed" and res.exit_code == 1
     assert "post is not seated on base" in res.reason  # the failing gate, not "gates_failed"
-    assert (good / "program.py").read_text() == lifted and "model.glb" not in _files(good)
-    assert _report(good)["findings"][0]["mate"] == "post_foot"
+    assert (good / "program.py").read_text() == LAMP.read_text()  # the kept build's program
+    assert {k: v for k, v in _files(good).items() if k != "report.json"} == \
+        {k: v for k, v in before.items() if k != "report.json"}
+    rep = _report(good)
+    assert rep["status"] == "gates_failed" and rep["kept_previous"] is True
+    assert rep["findings"][0]["mate"] == "post_foot" and not rep["gates"]["passed"]
+    assert not any(k.startswith("export_") for k in rep["timings"])  # gates ran, no export
+
+
+def test_gates_failed_first_build_writes_only_program_and_report(tmp_path, worker):
+    out = tmp_path / "run"
+    res = build(LAMP, out, source=LIFTED, formats=("step",))
+    assert res.status == "gates_failed"
+    assert sorted(_files(out)) == ["program.py", "report.json"]
+    assert (out / "program.py").read_text() == LIFTED
+
+
+def test_gates_failed_build_with_export_failed_is_complete_and_replaces_the_old_one(good):
+    res = build(LAMP, good, source=LIFTED, formats=("step",), export_failed=True)
+    assert res.status == "gates_failed"
+    assert (good / "program.py").read_text() == LIFTED and "model.glb" not in _files(good)
+    assert {"model.step", "mates.json"} <= set(_files(good))
+    rep = _report(good)
+    assert rep["complete"] is True and "kept_previous" not in rep
+    assert rep["findings"][0]["mate"] == "post_foot"
 
 
 def test_our_bug_writes_a_report_and_keeps_the_good_build(good, monkeypatch):
@@ -104,7 +130,7 @@ def test_keyboard_interrupt_in_process_writes_interrupted(good, monkeypatch):
     def ctrl_c(*a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(pipeline, "run_gates", ctrl_c)
+    monkeypatch.setattr(steps, "gate", ctrl_c)
     with pytest.raises(KeyboardInterrupt):
         build(LAMP, good, formats=("step",))
     rep = _report(good)
@@ -131,13 +157,13 @@ def test_a_blow_up_after_the_compile_is_one_line_and_a_report(tmp_path, worker, 
     # the plant: gates that want 4 GiB under a limit of 512 MiB more than this process maps,
     # or a wall-clock limit of 0.2 s
     if plant == "memory":
-        pipeline.compile_file(LAMP.read_text(), "lamp")  # this process's imports, as in a build
+        steps.compile_model(LAMP.read_text(), name="lamp", warm=True)  # this process's imports
         limits = ParentLimits(address_space_bytes=_vm_size() + 512 * 2**20)
 
         def greedy(model, source):
             return {"hoard": bytearray(4 * 2**30)}
 
-        monkeypatch.setattr(pipeline, "run_gates", greedy)
+        monkeypatch.setattr(steps, "gate", greedy)
     else:
         limits = ParentLimits(wall_s=0.2)
 
@@ -146,7 +172,7 @@ def test_a_blow_up_after_the_compile_is_one_line_and_a_report(tmp_path, worker, 
             time.sleep(5)
             return {}
 
-        monkeypatch.setattr(pipeline, "run_gates", slow)
+        monkeypatch.setattr(steps, "gate", slow)
     monkeypatch.setattr("procedura_brep.isolate.PARENT", limits)
     out = tmp_path / "run"
     res = CliRunner().invoke(app, ["build", str(LAMP), "-o", str(out)])

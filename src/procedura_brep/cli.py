@@ -3,7 +3,9 @@
 Exit codes: 0 success; 1 the program built but a gate or check failed (or the build failed on
 its own findings); 2 usage errors, unreadable input, unwritable output, or a program that does
 not compile; 3 an internal error (our bug: please report it, ``-v`` shows the traceback); 130
-interrupted (Ctrl-C; 143 for SIGTERM). Errors are one line on stderr, never a traceback.
+interrupted (Ctrl-C; 143 for SIGTERM). ``build``, ``generate`` and ``revise`` map their run's
+status to a code in one place, :func:`procedura_brep.run.status.exit_code`. Errors are one line
+on stderr, never a traceback.
 Progress goes to stderr too (``-q`` silences it), so stdout stays clean for ``--json``.
 """
 
@@ -19,13 +21,12 @@ import typer
 
 from .console import err as _err
 from .console import more as _more
+from .run.status import EXIT_FAIL, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, exit_code
 
 app = typer.Typer(
     name="procedura-brep", add_completion=False, no_args_is_help=True,
     pretty_exceptions_show_locals=False,
     help="Text prompt -> editable CAD assembly: build123d parts joined by typed, checked mates.")
-
-EXIT_OK, EXIT_FAIL, EXIT_USAGE, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 
 
 class _State:
@@ -68,9 +69,10 @@ def guarded(fn: Callable[..., Any]) -> Callable[..., Any]:
             raise
         except (EditError, ProgramFormatError, CompileError, InputError, OutputError) as exc:
             _err(str(exc))
-            errors = [f for f in getattr(exc, "findings", []) if f.severity == "error"]
+            from .findings import blocking
+            errors = blocking(getattr(exc, "findings", []))
             if _State.verbose and len(errors) > 1:
-                from .pipeline import describe
+                from .run.report import describe
                 _more([describe(f) for f in errors[1:]])
             raise typer.Exit(EXIT_USAGE) from None
         except ProceduraError as exc:
@@ -141,7 +143,7 @@ def _report_errors(reason: str, errors: list[Any]) -> None:
     """The first error on one line; with ``-v`` every further one too."""
     _err(reason)
     if _State.verbose and len(errors) > 1:
-        from .pipeline import describe
+        from .run.report import describe
         _more([describe(f) for f in errors[1:]])
 
 
@@ -157,11 +159,11 @@ def _formats(text: str | None) -> tuple[str, ...]:
 
 def _do_build(program: Path, out: Path, formats: tuple[str, ...], source: str | None = None,
               gates: bool = True, simulate: bool = False, step_schema: str = "AP214",
-              quiet: bool = False) -> int:
+              quiet: bool = False, keep_failed: bool = False) -> int:
     from .pipeline import build
     with _progress(quiet) as progress:
         res = build(program, out, formats=formats, source=source, gates=gates, simulate=simulate,
-                    step_schema=step_schema, progress=progress)
+                    step_schema=step_schema, progress=progress, export_failed=keep_failed)
     if res.ok:
         n = len(res.model.parts) if res.model else 0
         t = res.report.get("timings", {}).get("total_s", 0.0)
@@ -170,9 +172,7 @@ def _do_build(program: Path, out: Path, formats: tuple[str, ...], source: str | 
         return EXIT_OK
     kept = " (the previous build in the directory is kept)" if res.report.get("kept_previous") else ""
     _report_errors(f"build failed: {res.reason}{kept}", res.errors)
-    if res.status in ("gates_failed", "battery_failed"):
-        return EXIT_FAIL
-    return EXIT_USAGE if res.model is None or not res.model.parts else EXIT_FAIL
+    return res.exit_code
 
 
 @app.command()
@@ -185,14 +185,18 @@ def build(
     simulate: Annotated[bool, typer.Option("--simulate", help="Also run the MuJoCo battery and "
                                                               "record it in report.json.")] = False,
     step_schema: StepSchemaOption = StepSchema.AP214,
+    keep_failed: Annotated[bool, typer.Option("--keep-failed", help="Export a model that fails "
+                                                                    "its gates too.")] = False,
     quiet: QuietOption = False,
 ) -> None:
-    """Compile PROGRAM in the sandbox, place its parts and write the run directory."""
+    """Compile PROGRAM in the sandbox, gate it, and write the run directory (its exports only
+    when the gates pass, or with --keep-failed; report.json always)."""
     source = _read(program)
     fmts = _formats(formats)
     _output_dir(out)
     raise typer.Exit(_do_build(program, out, fmts, source=source, gates=not no_gates,
-                               simulate=simulate, step_schema=step_schema.value, quiet=quiet))
+                               simulate=simulate, step_schema=step_schema.value, quiet=quiet,
+                               keep_failed=keep_failed))
 
 
 @app.command()
@@ -211,7 +215,7 @@ def export(
     fmts = _formats(formats)
     _output_dir(out)
     with _progress(quiet) as progress:
-        model = _compile(program, progress=progress)
+        model = _compiled(program, progress=progress)
         progress(f"writing {len(model.parts)} parts as {', '.join(fmts)}")
         try:
             files = write_bundle(model, out, formats=fmts, step_schema=step_schema.value)
@@ -278,8 +282,10 @@ def edit(
     reported and not written (unless --force).
     """
     from .errors import OutputError
+    from .findings import blocking
     from .pipeline import build as run_build
-    from .pipeline import compile_file, describe
+    from .run import compile_model, gate
+    from .run.report import describe
     from .paths import program_name, write_atomic
     from .program.edit import parse_assignment, set_params
     from .rundir import output_reason
@@ -298,13 +304,12 @@ def edit(
                             progress=progress)
             problem = None if res.ok else res.reason
         elif not no_check:
-            from .gates import check_model
             progress(f"compiling {program_name(program)}")
-            model = compile_file(new, program_name(program))
-            errs = [f for f in model.findings if f.severity == "error"]
+            model = compile_model(new, name=program_name(program), warm=True)
+            errs = blocking(model.findings)
             if not errs:
                 progress("running the gates")
-                errs = [f for f in check_model(model, new).findings if f.severity == "error"]
+                errs = gate(model, new).errors
             problem = describe(errs[0]) if errs else None
     edits = ", ".join(f"{k}={v}" for k, v in values.items())
     if problem and not force:
@@ -320,21 +325,23 @@ def edit(
     raise typer.Exit(EXIT_FAIL if problem else EXIT_OK)
 
 
-def _compile(program: Path, source: str | None = None, progress: Any = None):
-    """Compile PROGRAM in the sandbox; a program that fails is a usage error (exit 2)."""
+def _compiled(program: Path, source: str | None = None, progress: Any = None):
+    """PROGRAM compiled in the sandbox; a program that fails is a usage error (exit 2)."""
     from .errors import CompileError
+    from .findings import blocking
     from .paths import program_name
-    from .pipeline import compile_file, describe
+    from .run import compile_model
+    from .run.report import describe
     text = _read(program) if source is None else source
     if progress is not None:
         progress(f"compiling {program_name(program)}")
     try:
-        model = compile_file(text, program_name(program))
+        model = compile_model(text, name=program_name(program), warm=True)
     except CompileError as exc:
         errs = exc.findings or []
         raise CompileError(f"{program} does not compile: {exc}", errs) from None
     if not model.ok:
-        errs = [f for f in model.findings if f.severity == "error"]
+        errs = blocking(model.findings)
         raise CompileError(f"{program} does not compile: {describe(errs[0])}"
                            + (f" (+{len(errs) - 1} more, -v lists them)" if len(errs) > 1 else ""),
                            errs)
@@ -361,7 +368,7 @@ def check(
     source = _read(program)
     with _progress(quiet) as progress:
         try:
-            model = _compile(program, source, progress=progress)
+            model = _compiled(program, source, progress=progress)
         except CompileError as exc:
             if not json_:
                 raise
@@ -410,7 +417,7 @@ def render(
     _read(program)
     _output_dir(out)
     with _progress(quiet) as progress:
-        model = _compile(program, progress=progress)
+        model = _compiled(program, progress=progress)
         progress("rendering")
         try:
             res = render_to_dir(model, out, views=views, mode=mode, size=size, sheet=sheet,  # type: ignore[arg-type]
@@ -514,9 +521,9 @@ def generate(
     if status == "ok":
         if not json_out:
             typer.echo(f"generated and built in {calls} call(s) -> {out}{usage}")
-        raise typer.Exit(EXIT_OK)
+        raise typer.Exit(exit_code(status))
     _err(f"generate {status} after {calls} call(s): {message} (work kept in {out})")
-    raise typer.Exit(EXIT_FAIL)
+    raise typer.Exit(exit_code(status))
 
 
 def _usage(out: Path) -> str:
@@ -570,9 +577,9 @@ def revise(
     if res.status == "ok":
         if not json_out:
             typer.echo(f"revised {run_dir}: {res.report.get('edits', 0)} edit(s)")
-        raise typer.Exit(EXIT_OK)
+        raise typer.Exit(exit_code(res.status))
     _err(f"revise ended {res.status} after {res.report.get('edits', 0)} edit(s) (see {run_dir}/history)")
-    raise typer.Exit(EXIT_FAIL)
+    raise typer.Exit(exit_code(res.status))
 
 
 @app.command()

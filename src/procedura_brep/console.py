@@ -13,6 +13,7 @@ from typing import Any
 import typer
 
 from .text import markup_safe, terminal_safe
+from .findings import blocking, blocks
 
 #: Cells in the tables are cut to this many characters (full values are in the JSON).
 CELL_CHARS = 60
@@ -67,7 +68,7 @@ def print_check(data: dict[str, Any]) -> None:
     for col in ("part", "triangles", "errors", "verdict"):
         tp.add_column(col)
     for name, tris in data["triangles_per_part"].items():
-        errs = [f for f in data["findings"] if f.get("part") == name and f.get("severity") == "error"]
+        errs = [f for f in blocking(data["findings"]) if f.get("part") == name]
         tp.add_row(_cell(name), str(tris), markup_safe("; ".join(f.get("code", "") for f in errs)),
                    "[red]FAIL[/]" if errs else "[green]pass[/]")
     con.print(tp)
@@ -91,7 +92,7 @@ def print_check(data: dict[str, Any]) -> None:
         t2.add_row(k, markup_safe(v, limit=CELL_CHARS))
     con.print(t2)
     for f in data["findings"]:
-        colour = "red" if f.get("severity") == "error" else "yellow"
+        colour = "red" if blocks(f) else "yellow"
         con.print(f"[{colour}]{markup_safe(f.get('severity'))}[/] {markup_safe(f.get('code'))}: "
                   f"{markup_safe(f.get('message'))}")
     con.print("[green]all gates pass[/]" if data["passed"] else "[red]a gate failed[/]")

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from ..errors import ProceduraError
+from ..findings import blocking
 from ..llm import Image, Message
 from ..paths import write_atomic
 from ..program.model import CompiledModel, Finding
@@ -201,7 +202,7 @@ class RefineBench:
         except ProceduraError as exc:
             return CompileOutcome(False, (str(exc),))
         report = check_model(model, source)
-        errs = tuple(f.message for f in report.findings if f.severity == "error")
+        errs = tuple(f.message for f in blocking(report.findings))
         floaters = tuple(f.message for f in report.gate("connectivity").findings if f.code == "floater")
         self._outcomes = {source: CompileOutcome(not errs, errs, floaters)}
         return self._outcomes[source]

@@ -1,7 +1,9 @@
 """The deterministic side of the staged agent: compile, gate one part, render, final build.
 
-:class:`Tools` is what the stages call between model calls. It has no model in it; tests use
-the real one (small programs compile in a fraction of a second in the warm worker).
+:class:`Tools` is what the stages call between model calls, on the run layer's steps
+(:mod:`procedura_brep.run`): compile and gate write nothing; the final build composes every
+step into the run directory. It has no model in it; tests use the real one (small programs
+compile in a fraction of a second in the warm worker).
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import CompileError
+from ..findings import blocking, blocks
 from ..llm import Image
 from ..program.model import CompiledModel, Finding
 
@@ -48,31 +51,34 @@ class Tools:
     def __init__(self, *, render_size: int = 384) -> None:
         self.render_size = render_size
 
-    def compile(self, source: str, name: str = "model") -> CompiledModel:
-        """Compile ``source`` (raises CompileError for a program that does not compile)."""
-        from ..program.sandbox import compile_source
-        return compile_source(source, name=name)
+    def compile_model(self, source: str, name: str = "model") -> CompiledModel:
+        """The run layer's compile step (raises CompileError for a program that does not
+        compile)."""
+        from ..run import compile_model
+        return compile_model(source, name=name)
+
+    compile = compile_model  # deprecated name (agent/staged.py, agent/refine.py call it)
 
     def gate_part(self, source: str, part: str, *, baseline: int, name: str = "model") -> PartVerdict:
         """Compile, then the gates on ``part``: its compile findings, its mates, pair findings
         naming it, and connectivity relative to the running ``baseline`` N_vis."""
         try:
-            model = self.compile(source, name)
+            model = self.compile_model(source, name)
         except CompileError as exc:
             return PartVerdict(False, exc.findings or [Finding("compile", str(exc))])
         if not model.parts:
-            return PartVerdict(False, [f for f in model.findings if f.severity == "error"]
+            return PartVerdict(False, blocking(model.findings)
                                or [Finding("compile", "the program compiled to no parts")], model=model)
-        from ..gates import check_model
-        report = check_model(model, source, baseline=baseline)
+        from ..run import gate
+        verdict = gate(model, source, baseline=baseline)
         own = {m.name for m in model.mates if m.child == part}
         compiled = part in {p.name for p in model.parts}
-        errors, warnings = [], []
-        for f in report.findings:
-            # a rise of N_vis over the baseline fails whichever part floats; otherwise what names it
-            if f.code in ("floater", "floater-increase") or involves(f, part, own):
-                (errors if f.severity == "error" else warnings).append(f)
-        n_vis = int(report.gate("connectivity").measured.get("n_vis", 0))
+        # a rise of N_vis over the baseline fails whichever part floats; otherwise what names it
+        mine = [f for f in verdict.findings
+                if f.code in ("floater", "floater-increase") or involves(f, part, own)]
+        errors = blocking(mine)
+        warnings = [f for f in mine if not blocks(f)]
+        n_vis = int(verdict.report["connectivity"].get("n_vis") or 0)
         return PartVerdict(compiled, errors, warnings, n_vis, model)
 
     def render(self, model: CompiledModel, views: list[str] | None = None, *,
@@ -90,7 +96,9 @@ class Tools:
 
     def final_build(self, source: str, out_dir: Path, *, simulate: bool = True,
                     formats: tuple[str, ...] | None = None) -> Any:
-        """Build the run directory's models and reports from the final program."""
+        """Build the run directory's models and reports from the final program (exported even
+        when a gate fails, so the work is kept: status ``gates_failed``)."""
         from ..pipeline import build
-        return build(out_dir / "program.py", out_dir, source=source, simulate=simulate, formats=formats)
+        return build(out_dir / "program.py", out_dir, source=source, simulate=simulate, formats=formats,
+                     export_failed=True)
 

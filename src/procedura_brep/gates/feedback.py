@@ -9,6 +9,7 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 
+from ..findings import blocks as is_blocking
 from ..program.model import Finding
 
 #: Most findings listed in one feedback message (the rest are counted, not shown).
@@ -89,7 +90,7 @@ def format_feedback(source: str | None, findings: Sequence[Finding], *, around: 
     """
     if not findings:
         return ""
-    ordered = sorted(findings, key=lambda f: (f.severity != "error",))
+    ordered = sorted(findings, key=lambda f: (not is_blocking(f),))
     blocks = [format_finding(source, f, around=around) for f in ordered[:limit]]
     if len(ordered) > limit:
         blocks.append(f"... and {len(ordered) - limit} more finding(s) not shown")

@@ -6,6 +6,7 @@ recompiled here) so the gate grades the mesh the user receives. ``give_up`` is n
 
 from __future__ import annotations
 
+from ..findings import blocking
 from ..program.model import CompiledModel, Finding
 from .connectivity import analyse, floater_findings
 from .policy import GateResult, result
@@ -39,7 +40,7 @@ def finish_gate(model: CompiledModel | None = None, *, source: str | None = None
             refusal = Finding("finish-refused", f"the final program did not compile: {exc}")
             return [refusal, *fs], result("finish", [refusal, *fs], {"n_vis": None, "offenders": []})
     if not model.ok:
-        errs = [f for f in model.findings if f.severity == "error"]
+        errs = blocking(model.findings)
         refusal = Finding("finish-refused", f"the final program does not compile cleanly "
                           f"({len(errs)} error(s)); fix them before finish(ok)")
         return [refusal, *errs], result("finish", [refusal, *errs], {"n_vis": None, "offenders": []})

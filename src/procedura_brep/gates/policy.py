@@ -1,18 +1,17 @@
 """Gate results and the one policy that turns findings into pass/fail.
 
-Gates never raise on a bad model: they return :class:`~procedura_brep.program.model.Finding`
-objects and a :class:`GateResult`; :func:`decide` is the only place that says what fails.
+Gates never raise on a bad model: they return :class:`~procedura_brep.findings.Finding`
+objects and a :class:`GateResult`; :func:`decide` is the gates' name for the one policy,
+:func:`procedura_brep.findings.failed`.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any
 
-from ..program.model import Finding
-
-Severity = Literal["error", "warning"]
+from ..findings import Finding, Severity, failed  # noqa: F401 - Severity re-exported
 
 
 @dataclass
@@ -36,9 +35,9 @@ class GateResult:
                 "findings": [f.as_dict() for f in self.findings]}
 
 
-def decide(findings: Iterable[Finding], *, fail_on: tuple[Severity, ...] = ("error",)) -> bool:
-    """True (pass) when no finding has a severity in ``fail_on``."""
-    return not any(f.severity in fail_on for f in findings)
+def decide(findings: Iterable[Finding]) -> bool:
+    """True (pass) when no finding blocks (:func:`procedura_brep.findings.failed`)."""
+    return not failed(findings)
 
 
 def result(gate: str, findings: list[Finding], measured: dict[str, Any] | None = None) -> GateResult:

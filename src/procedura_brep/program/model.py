@@ -2,7 +2,8 @@
 
 No kernel objects live here, only BRep bytes and 4x4 matrices (mm), so a model is JSON-safe
 (see :func:`to_json` / :func:`from_json`) and independent of the process that compiled it.
-Shapes are materialised lazily through :mod:`procedura_brep.kernel`.
+Shapes are materialised lazily through :mod:`procedura_brep.kernel`. :class:`Finding` lives in
+:mod:`procedura_brep.findings` (base layer) and is re-exported here.
 """
 
 from __future__ import annotations
@@ -14,50 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from ..config import SANDBOX
-
-
-def cap_text(text: str, limit: int | None = None) -> str:
-    """``text`` cut to ``config.SANDBOX.message_chars`` characters (marked when cut)."""
-    n = SANDBOX.message_chars if limit is None else limit
-    if len(text) <= n:
-        return text
-    return text[:n] + f"... [{len(text) - n} more characters cut]"
-
-
-@dataclass
-class Finding:
-    """One problem found while compiling or gating (never an exception).
-
-    Attributes:
-        code: stable identifier, e.g. ``"part-exception"``, ``"mate-residual"``.
-        message: one line for people and for the model.
-        part: the part concerned, if any.
-        mate: the mate concerned, if any.
-        line: 1-based program line, if known.
-        value: the measured value, if any.
-        limit: the limit it was compared with, if any.
-        severity: ``"error"`` fails the build; ``"warning"`` is reported only.
-    """
-
-    code: str
-    message: str
-    part: str | None = None
-    mate: str | None = None
-    line: int | None = None
-    value: float | None = None
-    limit: float | None = None
-    severity: str = "error"
-
-    def __post_init__(self) -> None:
-        # capped at the source: a hostile program's exception text must not flood the
-        # report, the terminal or the model's feedback
-        if isinstance(self.message, str):
-            self.message = cap_text(self.message)
-
-    def as_dict(self) -> dict[str, Any]:
-        return {k: v for k, v in self.__dict__.items() if v is not None}
-
+from ..findings import Finding, cap_text, failed  # noqa: F401 - Finding, cap_text re-exported
 
 _MESHES: dict[str, Any] = {}
 _MESH_CACHE_SIZE = 512
@@ -173,7 +131,7 @@ class CompiledModel:
 
     @property
     def ok(self) -> bool:
-        return not any(f.severity == "error" for f in self.findings)
+        return not failed(self.findings)
 
 
 def _m(a: np.ndarray) -> list[list[float]]:

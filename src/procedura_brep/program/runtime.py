@@ -24,6 +24,7 @@ import numpy as np
 
 from ..config import SANDBOX, SandboxLimits
 from ..errors import MateError, ProceduraError, ProgramFormatError
+from ..findings import failed
 from ..materials import MATERIALS
 from ..mates import check_options, get_type
 from ..mates import placement as pl
@@ -174,7 +175,7 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
                             f"{limits.max_parts} (config.SANDBOX.max_parts)", value=len(reg.parts),
                limit=limits.max_parts)
     _check_materials(b, reg)
-    if any(f.severity == "error" for f in b.findings):
+    if failed(b.findings):
         return CompiledModel(name, params, [], [], b.findings, b.timings)
     mates = _resolve_mates(b, reg, params)
     keys = cache.part_keys(source, sections, reg, params, mates, glb)
@@ -217,7 +218,7 @@ def _check_materials(b: _Build, reg: registry.Registry) -> None:
 
 
 def _check_model_caps(b: _Build, reg: registry.Registry) -> None:
-    if not b.figures or any(f.severity == "error" for f in b.findings):
+    if not b.figures or failed(b.findings):
         return
     why = caps.model_violation(b.figures, b.world, b.limits)
     if why:

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..config import SANDBOX
 from ..errors import ProceduraError
+from ..findings import SEVERITIES
 from ..materials import MATERIALS
 from ..mates import TYPES
 from .model import CompiledMate, CompiledModel, CompiledPart, Finding, cap_text
@@ -34,7 +35,6 @@ NAME = re.compile(r"[a-z][a-z0-9_]{0,63}")
 #: Param names: Python identifiers.
 IDENT = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 HEX_KEY = re.compile(r"[0-9a-f]{64}")
-SEVERITIES = ("error", "warning", "info")
 MAX_NAME = 128  # params and other identifiers
 MAX_TEXT = 4096
 MAX_ITEMS = 10_000

@@ -1,8 +1,10 @@
 """The MuJoCo battery B0-B7 (DESIGN.md section 7) over one exported bundle.
 
 ``run_battery(source)`` takes a :class:`CompiledModel` (the bundle is written first, to
-``out_dir`` or a temporary directory) or a bundle directory holding ``program.py`` (compiled
-again, so the mate graph is the reference) and the exported files, which are what gets checked.
+``out_dir`` or a temporary directory; with ``exported=True`` the model's bundle already in
+``out_dir`` is checked as it is, and program.py is never read) or a bundle directory holding
+``program.py`` (compiled again, so the mate graph is the reference) and the exported files, which
+are what gets checked. :func:`failures` turns a report into findings, one per failed check.
 
 B0 model fidelity (``model.xml``) · B1 settle (``model.xml``) · B2 joint sweeps (root welded,
 gravity off; exact-solid penetration sampled along every range, spherical cones included) · B3
@@ -23,6 +25,7 @@ import numpy as np
 
 from ..articulation import articulate, link_masses
 from ..config import TOL
+from ..findings import Finding
 from ..program.model import CompiledModel
 from . import contact
 from .dynamics import check_b1, check_b4, check_b7, sweep_joint
@@ -36,17 +39,22 @@ log = logging.getLogger(__name__)
 ALL_CHECKS: tuple[str, ...] = ("B0", "B1", "B2", "B3", "B4", "B5", "B6", "B7")
 #: Prefix of the temporary bundle directory used when no ``out_dir`` is given (removed after).
 TEMP_PREFIX = "procedura-battery-"
+#: The export formats the battery reads, and the file (relative) that shows each is there.
+NEEDS: dict[str, str] = {"urdf": "urdf", "usd": "model.usda", "mjcf": "model.xml"}
 
 
-def _load(source: CompiledModel | str | Path, out_dir: Path | None
+def _load(source: CompiledModel | str | Path, out_dir: Path | None, exported: bool = False
           ) -> tuple[CompiledModel, Path, bool]:
     """``(model, bundle root, whether the root is a temp dir this call created)``."""
     if isinstance(source, CompiledModel):
         from ..export.bundle import write_bundle
         temp = out_dir is None
         root = out_dir or Path(tempfile.mkdtemp(prefix=TEMP_PREFIX))
+        missing = tuple(f for f, rel in NEEDS.items()
+                        if not (exported and not temp and (root / rel).exists()))
         try:
-            write_bundle(source, root, formats=("urdf", "usd", "mjcf"))
+            if missing:
+                write_bundle(source, root, formats=missing)
         except BaseException:
             if temp:
                 shutil.rmtree(root, ignore_errors=True)
@@ -172,7 +180,8 @@ def check_b3(model: CompiledModel, art) -> CheckResult:
 
 
 def run_battery(source: CompiledModel | str | Path, *, out_dir: str | Path | None = None,
-                checks: Iterable[str] | None = None, frames: bool = True) -> BatteryReport:
+                checks: Iterable[str] | None = None, frames: bool = True,
+                exported: bool = False) -> BatteryReport:
     """Run the battery; never raises for a failing model (each check reports instead).
 
     Args:
@@ -182,14 +191,31 @@ def run_battery(source: CompiledModel | str | Path, *, out_dir: str | Path | Non
             removed afterwards, so no frames are saved: the report's notes say so).
         checks: the ids to run (default all).
         frames: save up to 8 frames of a failing phase.
+        exported: ``source`` is a CompiledModel whose bundle this process just wrote to
+            ``out_dir``: check those files (only a format the battery needs and that is not
+            there is written).
     """
     wanted = tuple(c for c in ALL_CHECKS if checks is None or c in set(checks))
-    model, root, temp = _load(source, Path(out_dir) if out_dir else None)
+    model, root, temp = _load(source, Path(out_dir) if out_dir else None, exported)
     try:
         return _run(model, root, wanted, frames and not temp, temp)
     finally:
         if temp:
             shutil.rmtree(root, ignore_errors=True)
+
+
+def failures(report: BatteryReport | dict) -> list[Finding]:
+    """One error finding per failed check (code ``battery-B2`` ...), naming the check; a
+    skipped check passes. Takes the report or its :meth:`~BatteryReport.as_dict`."""
+    checks = report.get("checks", []) if isinstance(report, dict) else [c.as_dict() for c in report.checks]
+    out = []
+    for c in checks:
+        if c.get("passed") or c.get("skipped"):
+            continue
+        label = f"{c.get('id')} ({c['name']})" if c.get("name") else str(c.get("id"))
+        out.append(Finding(f"battery-{c.get('id')}", f"battery {label} failed: "
+                                                     f"{c.get('message') or 'no message'}"))
+    return out
 
 
 def _run(model: CompiledModel, root: Path, wanted: tuple[str, ...], frames: bool,

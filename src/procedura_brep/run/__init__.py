@@ -1,0 +1,36 @@
+"""The run layer: typed steps ``compile -> gate -> export -> simulate`` and how a run ends.
+
+Sits between sim/render and agent: it imports program, gates, export and sim; the agent, the
+pipeline (:func:`procedura_brep.pipeline.build`, the run directory) and the CLI import it.
+
+Public API (names resolve lazily, PEP 562, so importing the package loads no CAD code)::
+
+    compile_model(source, name=..., warm=False) -> CompiledModel     # raises CompileError
+    gate(model, source=None, baseline=None) -> GateVerdict            # writes nothing
+    export(model, root, formats=None, step_schema="AP214") -> Bundle  # exports + mates.json
+    simulate(model, bundle, frames=True) -> BatteryVerdict            # never reads program.py
+    Status, exit_code(status, compiled=True) -> int                   # the one exit-code map
+    run_report(...) -> dict, describe(finding) -> str, reason(status, findings) -> str
+
+See docs/run_layer.md.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+_LAZY = {
+    "compile_model": ".steps", "gate": ".steps", "export": ".steps", "simulate": ".steps",
+    "GateVerdict": ".steps", "Bundle": ".steps", "BatteryVerdict": ".steps", "dump_json": ".steps",
+    "Status": ".status", "exit_code": ".status", "EXIT_CODES": ".status",
+    "run_report": ".report", "describe": ".report", "reason": ".report",
+}
+
+__all__ = list(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name], __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

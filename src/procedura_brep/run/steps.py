@@ -1,0 +1,226 @@
+"""The four steps of a run, each a plain function of values: compile -> gate -> export -> simulate.
+
+* :func:`compile_model` (program text -> :class:`CompiledModel`, in the sandbox worker),
+* :func:`gate` (model -> :class:`GateVerdict`: every gate's findings; writes nothing),
+* :func:`export` (model -> :class:`Bundle`: the export files and ``mates.json`` in a folder),
+* :func:`simulate` (model + its bundle -> :class:`BatteryVerdict`; never reads ``program.py``).
+
+Each can be called alone (the staged agent compiles and gates one part at a time and writes
+nothing); :func:`procedura_brep.pipeline.build` composes them into a run directory. ``gate``,
+``export`` and ``simulate`` tessellate: a caller that must survive a model whose meshes blow
+up runs them in :func:`procedura_brep.isolate.run_limited` (``build`` does).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+from .. import interrupt
+from ..findings import Finding, blocking, failed
+from ..paths import json_default, write_atomic
+from ..program.model import CompiledModel
+
+
+def compile_model(source: str, *, name: str = "model", warm: bool = False) -> CompiledModel:
+    """Compile ``source`` in the sandbox worker (the one compile of the run layer).
+
+    Args:
+        source: the program text (untrusted: it runs only in the sandbox).
+        name: the model name.
+        warm: the CLI's cold path: refuse an oversized program first, start the worker, and
+            load this process's OCP, gate and export modules while it boots (free wall time).
+
+    Returns:
+        The model; its ``findings`` say whether it compiled cleanly (``model.ok``).
+
+    Raises:
+        CompileError: the worker refused or could not compile the program (its ``findings``
+            say why).
+    """
+    from ..program.sandbox import (
+        compile_source,
+        default_worker,
+        kill_default_worker,
+        refuse_oversized,
+    )
+    if warm:
+        from .. import kernel
+        refuse_oversized(source)  # before paying for the worker and the warm-up
+        with interrupt.children_ignore_sigint():  # the terminal's Ctrl-C is ours to handle
+            default_worker()  # starts the worker process now, returns at once
+        interrupt.add_cleanup(kill_default_worker)
+        kernel.warm_up()
+        _warm_imports()
+    return compile_source(source, name=name)
+
+
+def _warm_imports() -> None:
+    """Import what gates and exports need while the worker boots."""
+    import scipy.spatial  # noqa: F401
+    import trimesh  # noqa: F401
+
+    from .. import gates  # noqa: F401
+    from ..export import bundle  # noqa: F401
+    try:
+        import mujoco  # noqa: F401
+        from pxr import Usd, UsdPhysics  # noqa: F401
+    except ImportError:  # pragma: no cover - reported by doctor
+        pass
+
+
+@dataclass
+class GateVerdict:
+    """What the gates say about one model.
+
+    Attributes:
+        report: the gate report (:meth:`procedura_brep.gates.CheckReport.as_dict`, JSON-safe).
+        findings: every gate finding (errors, warnings, infos), compile findings included.
+        seconds: wall time of the gates.
+    """
+
+    report: dict[str, Any]
+    findings: list[Finding]
+    seconds: float = 0.0
+
+    @property
+    def passed(self) -> bool:
+        return not failed(self.findings)
+
+    @property
+    def errors(self) -> list[Finding]:
+        """The findings that fail the model (:func:`procedura_brep.findings.blocking`)."""
+        return blocking(self.findings)
+
+
+def gate(model: CompiledModel, source: str | None = None, *,
+         baseline: int | None = None) -> GateVerdict:
+    """Every gate on ``model`` (:func:`procedura_brep.gates.check_model`); writes nothing.
+
+    Args:
+        model: a compiled model.
+        source: the program text (line context in the feedback).
+        baseline: the running N_vis of a staged build (floaters fail only above it).
+    """
+    from ..gates import check_model
+    t = time.perf_counter()
+    check = check_model(model, source, baseline=baseline)
+    return GateVerdict(check.as_dict(), check.findings, time.perf_counter() - t)
+
+
+@dataclass
+class Bundle:
+    """The files :func:`export` wrote.
+
+    Attributes:
+        root: the folder they are in.
+        files: relative path -> path, ``mates.json`` included.
+        timings: seconds per stage (``export_<format>_s``, ``export_s``, ``evidence_s``).
+    """
+
+    root: Path
+    files: dict[str, Path] = field(default_factory=dict)
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+def export(model: CompiledModel, root: Path, *, formats: tuple[str, ...] | None = None,
+           step_schema: Literal["AP214", "AP242"] = "AP214",
+           evidence: bool | None = None) -> Bundle:
+    """Write the export bundle and ``mates.json`` of ``model`` into ``root``.
+
+    Args:
+        model: a compiled model.
+        root: the folder (created).
+        formats: the export formats (None: all).
+        step_schema: ``AP214`` or ``AP242``.
+        evidence: add the articulation evidence to ``mates.json`` (default: when more than one
+            format is written).
+
+    Raises:
+        ArticulationError: the mate graph is not a tree.
+        OSError: ``root`` cannot be written.
+    """
+    from ..export.bundle import parse_formats, write_bundle
+    from ..export.records import mates_json
+    fmts = parse_formats(formats)
+    timings: dict[str, float] = {}
+    t = time.perf_counter()
+    per: dict[str, float] = {}
+    written = write_bundle(model, root, formats=fmts, timings=per, step_schema=step_schema)
+    timings.update({f"export_{k}_s": v for k, v in per.items()})
+    timings["export_s"] = time.perf_counter() - t
+    ev = None
+    if evidence is None:
+        evidence = len(fmts) > 1
+    if evidence:
+        t = time.perf_counter()
+        from ..articulation import mates_evidence
+        ev = mates_evidence(model)
+        timings["evidence_s"] = time.perf_counter() - t
+    written["mates.json"] = write_atomic(root / "mates.json", dump_json(mates_json(model, ev)))
+    return Bundle(root, written, timings)
+
+
+@dataclass
+class BatteryVerdict:
+    """What the MuJoCo battery says about one model.
+
+    Attributes:
+        report: the battery report (:meth:`procedura_brep.sim.BatteryReport.as_dict`).
+        findings: one error finding per failed check (:func:`procedura_brep.sim.battery.failures`).
+        seconds: wall time of the battery.
+    """
+
+    report: dict[str, Any]
+    findings: list[Finding]
+    seconds: float = 0.0
+
+    @property
+    def passed(self) -> bool:
+        return not failed(self.findings)
+
+
+def simulate(model: CompiledModel, bundle: Bundle | Path | None = None, *,
+             frames: bool = True) -> BatteryVerdict:
+    """The MuJoCo battery on ``model``, reading the bundle :func:`export` just wrote.
+
+    ``program.py`` is never read: the model is the reference. A format the battery needs that
+    the bundle lacks (``--formats step``) is written into the bundle's folder; with no bundle,
+    everything goes to a temporary folder (no failure frames are kept).
+
+    Args:
+        model: a compiled model.
+        bundle: its bundle (or the folder holding it); failure frames go under it.
+        frames: save frames of a failing phase (off when this process holds a GL context,
+            which a forked child cannot use: the report's notes say so).
+    """
+    from ..sim.battery import failures, run_battery
+    root = bundle.root if isinstance(bundle, Bundle) else bundle
+    t = time.perf_counter()
+    draw = frames and not _gl_in_use()
+    report = run_battery(model, out_dir=root, frames=draw, exported=root is not None).as_dict()
+    if frames and not draw:
+        report.setdefault("notes", []).append(
+            "no failure frames: this process inherited a GL context, which a forked child "
+            "cannot use")
+    return BatteryVerdict(report, failures(report), time.perf_counter() - t)
+
+
+def _gl_in_use() -> bool:
+    """Whether this process inherited a GL context (its driver threads do not survive a fork,
+    so the child must not draw battery frames with it)."""
+    import sys
+    gl = sys.modules.get("procedura_brep.render.gl")
+    return getattr(gl, "_RENDERER", None) is not None
+
+
+def dump_json(obj: Any) -> str:
+    """The run directory's JSON layout (indented, UTF-8, numpy-safe)."""
+    import json
+    return json.dumps(obj, indent=2, sort_keys=False, ensure_ascii=False, default=json_default) + "\n"
+
+
+__all__ = ["BatteryVerdict", "Bundle", "GateVerdict", "compile_model", "dump_json", "export", "gate",
+           "simulate"]
