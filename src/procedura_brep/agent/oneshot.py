@@ -104,8 +104,10 @@ def generate(prompt: str, out_dir: Path, *, model: str, base_url: str | None = N
                 messages.append(Message.user(template("feedback").replace("{findings}", f"- {exc}")))
                 continue
             write_atomic(out_dir / "history" / f"{attempt + 1:03d}.py", source)
+            # export_failed: the run dir always holds the last assembly that compiled, even
+            # one that fails its gates (never an empty result)
             result.build = build(out_dir / "program.py", out_dir, source=source, formats=formats,
-                                 name=None, progress=progress)
+                                 name=None, progress=progress, export_failed=True)
             if result.build.ok:
                 result.status = "ok"
                 note(f"attempt {attempt + 1}/{attempts}: built")
