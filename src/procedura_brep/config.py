@@ -251,14 +251,14 @@ class MaterialLimits:
         subparts_triangle_tol: the materials stage's sub-part pass may rewrite a part only if
             the rewritten part's triangle count (at the fixed meshing tolerance) stays within
             this fraction of the original's, so paint never changes shape.
-        critic_attempts: tries of a materials / material_critic call whose reply does not parse
+        reply_attempts: tries of a materials, material_critic or subparts call whose reply does not parse
             (each retry is told the parse error).
     """
 
     density_range: tuple[float, float] = (1.0, 25_000.0)
     max_declared: int = 64
     subparts_triangle_tol: float = 0.02
-    critic_attempts: int = 2
+    reply_attempts: int = 2
 
 
 MATERIAL = MaterialLimits()
