@@ -132,3 +132,19 @@ def test_paint_keeps_every_part_cached(worker, tmp_path):
     again = compile_source(lamp_source(DECLS.replace("wear=0.25", "wear=0.9")), name="lamp", worker=worker)
     assert [p.cache_key for p in again.parts] == [p.cache_key for p in first.parts]
     assert again.material_of(again.part("arm")).wear == 0.9
+
+
+def test_the_parent_checks_the_library_the_child_returns(lamp):
+    """The sandbox child is untrusted: a declared entry out of range, or one that redefines a
+    built-in, or a part naming a material outside the library, is a ResultError."""
+    from procedura_brep.program.model import from_json, to_json
+    from procedura_brep.program.trust import ResultError
+    good = json.loads(json.dumps(to_json(lamp)))
+    for mutate, message in (
+            (lambda d: d["materials"][0].update(roughness=7), "roughness = 7 is outside"),
+            (lambda d: d["materials"][0].update(name="steel"), "redeclare the built-in material"),
+            (lambda d: d["parts"][2].update(material="lamp_blue"), "is not a library material")):
+        bad = json.loads(json.dumps(good))
+        mutate(bad)
+        with pytest.raises(ResultError, match=message):
+            from_json(bad)
