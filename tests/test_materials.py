@@ -6,7 +6,12 @@ import pytest
 
 from procedura_brep import materials
 from procedura_brep.config import MATERIAL
-from procedura_brep.materials import MaterialError, declare, library_from_json, library_to_json
+from procedura_brep.materials import (
+    MaterialError,
+    declare,
+    library_from_json,
+    library_to_json,
+)
 
 LIB = materials.default_library()
 

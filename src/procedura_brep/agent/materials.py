@@ -21,7 +21,6 @@ A stage that cannot use a reply keeps the program as it was and says why in the 
 from __future__ import annotations
 
 import io
-import logging
 from typing import Any, Protocol
 
 from ..config import MATERIAL
@@ -31,11 +30,18 @@ from ..materials import CLASSES, MATERIALS
 from ..paths import write_atomic
 from ..program.model import CompiledModel
 from ..program.splice import SpliceError, replace_part
-from .paint import Assignment, Entry, PaintError, apply_materials, declared_entries, merge, parse_assignment, parse_rewrites
+from .paint import (
+    Assignment,
+    Entry,
+    PaintError,
+    apply_materials,
+    declared_entries,
+    merge,
+    parse_assignment,
+    parse_rewrites,
+)
 from .prompts import template
 from .refine import Host, findings_text
-
-log = logging.getLogger(__name__)
 
 #: Views the materials calls see (parts colours for the library, PBR for the critic).
 MATERIAL_VIEWS: tuple[str, ...] = ("iso_se", "iso_nw")
@@ -172,7 +178,8 @@ def run_materials(host: Host, source: str) -> tuple[str, dict[str, Any]]:
     _critic_step(bench, size)
     _subparts_step(bench, size)
     report = {"ok": all(s["ok"] for s in bench.steps), "steps": bench.steps,
-              "library": [e.material().as_dict() | {"declared": e.values} for e in bench.entries],
+              "library": [bench.model.materials[e.name].as_dict() | {"declared": e.values}
+                          for e in bench.entries if e.name in bench.model.materials],
               "assign": bench.assignment()}
     return bench.source, report
 

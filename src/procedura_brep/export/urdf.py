@@ -31,9 +31,9 @@ from typing import Literal
 
 import numpy as np
 
-from ..materials import get
 from ..articulation.mass import MassProps, link_masses
 from ..articulation.tree import Articulation, Joint, articulate
+from ..materials import get
 from ..program.model import CompiledModel
 from .meshes import collision_pieces, sim_mesh, stl_bytes, to_local_m
 

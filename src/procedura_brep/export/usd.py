@@ -26,9 +26,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..materials import Material, get
 from ..articulation.mass import MassProps, link_masses
 from ..articulation.tree import Articulation, articulate
+from ..materials import Material, get
 from ..program.model import CompiledModel
 from .meshes import collision_pieces, part_mesh, to_local_m
 from .mjcf import quat, wheel_joints
