@@ -237,3 +237,28 @@ class ParentLimits:
 
 
 PARENT = ParentLimits()
+
+
+@dataclass(frozen=True)
+class MaterialLimits:
+    """Ranges of a program's own material declarations (``material(...)``, see
+    :mod:`procedura_brep.materials`) and the materials stage of the staged agent.
+
+    Attributes:
+        density_range: allowed density in kg/m^3: from aerogel-like foams (a few kg/m^3) to
+            osmium (22,590); anything outside is a typo in units.
+        max_declared: most materials one program may declare.
+        subparts_triangle_tol: the materials stage's sub-part pass may rewrite a part only if
+            the rewritten part's triangle count (at the fixed meshing tolerance) stays within
+            this fraction of the original's, so paint never changes shape.
+        reply_attempts: tries of a materials, material_critic or subparts call whose reply does not parse
+            (each retry is told the parse error).
+    """
+
+    density_range: tuple[float, float] = (1.0, 25_000.0)
+    max_declared: int = 64
+    subparts_triangle_tol: float = 0.02
+    reply_attempts: int = 2
+
+
+MATERIAL = MaterialLimits()

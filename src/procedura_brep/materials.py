@@ -1,15 +1,35 @@
-"""The material library: one documented table shared by STEP colours, PBR exports and mass.
+"""Materials: the built-in library and a program's own PBR declarations.
 
-Each entry has a base colour (linear-ish sRGB in 0..1, as written to STEP and MTL ``Kd``),
-metalness and roughness (glTF / UsdPreviewSurface / MTL ``Pm`` ``Pr``), and a density in kg/m^3
-for mass properties. Densities are typical handbook values (e.g. steel 7850, aluminium alloy
-2700, cast iron 7200, ABS 1050). A part names its material by key; an unknown key is an error
-that lists the keys.
+Each entry has a base colour (albedo, sRGB in 0..1, as written to STEP and MTL ``Kd``),
+metalness and roughness (glTF / UsdPreviewSurface / MTL ``Pm`` ``Pr``), a density in kg/m^3
+for mass properties, a coarse class, and a wear amount (0 new .. 1 worn; carried to the
+exports' metadata and to the materials stage of the agent). Densities of the built-in table
+are typical handbook values (e.g. steel 7850, aluminium alloy 2700, cast iron 7200, ABS 1050).
+
+The built-in table :data:`MATERIALS` is the default library. A program may declare its own
+entries with ``material(name, base=..., rgb=..., ...)`` (:func:`declare` validates them); the
+compiled model carries the library it was built with (built-ins plus declarations), and every
+export, render and mass property reads materials from that library, never from this table.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass
+from typing import Any, Literal, get_args
+
+from .config import MATERIAL
+from .errors import ProceduraError
+
+MaterialClass = Literal["metal", "polymer", "elastomer", "ceramic", "composite", "wood", "glass"]
+CLASSES: tuple[str, ...] = get_args(MaterialClass)
+MAX_NAME = 64
+
+
+class MaterialError(ProceduraError, ValueError):
+    """A material declaration or lookup that cannot be used (the message names the value and
+    the allowed range or the known names)."""
 
 
 @dataclass(frozen=True)
@@ -18,11 +38,12 @@ class Material:
 
     Attributes:
         name: the key programs use.
-        rgb: base colour, each channel in [0, 1].
+        rgb: base colour (albedo), each channel in [0, 1].
         metalness: 0 dielectric .. 1 metal.
         roughness: 0 mirror .. 1 matte.
         density: kg/m^3.
-        material_class: coarse class: metal, polymer, elastomer, ceramic, composite, wood, glass.
+        material_class: coarse class, one of :data:`CLASSES`.
+        wear: 0 new .. 1 worn.
     """
 
     name: str
@@ -31,6 +52,16 @@ class Material:
     roughness: float
     density: float
     material_class: str
+    wear: float = 0.0
+
+    @property
+    def albedo(self) -> tuple[float, float, float]:
+        return self.rgb
+
+    def as_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d["rgb"] = list(self.rgb)
+        return d
 
 
 def _m(name: str, rgb: tuple[int, int, int], metal: float, rough: float, density: float,
@@ -63,9 +94,111 @@ MATERIALS: dict[str, Material] = {m.name: m for m in [
 ]}
 
 
-def get(name: str) -> Material:
-    """The material called ``name``, or a ValueError listing every key."""
+def get(name: str, library: Mapping[str, Material] | None = None) -> Material:
+    """The material called ``name`` in ``library`` (default: the built-in table), or a
+    :class:`MaterialError` listing every name."""
+    lib = MATERIALS if library is None else library
     try:
-        return MATERIALS[name]
-    except KeyError:
-        raise ValueError(f"unknown material {name!r}; use one of: {', '.join(MATERIALS)}") from None
+        return lib[name]
+    except (KeyError, TypeError):
+        raise MaterialError(f"unknown material {name!r:.60}; use one of: {', '.join(lib)}") from None
+
+
+def default_library() -> dict[str, Material]:
+    """A fresh copy of the built-in table (the library of a program that declares nothing)."""
+    return dict(MATERIALS)
+
+
+def _unit(what: str, value: Any, *, low: float = 0.0, high: float = 1.0, unit: str = "") -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise MaterialError(f"{what} = {value!r:.40} must be a number in [{low:g}, {high:g}]{unit}")
+    if not low <= value <= high:
+        raise MaterialError(f"{what} = {value:g}{unit} is outside the allowed range [{low:g}, {high:g}]{unit}")
+    return float(value)
+
+
+def _rgb(what: str, value: Any) -> tuple[float, float, float]:
+    if not isinstance(value, (tuple, list)) or len(value) != 3:
+        raise MaterialError(f"{what} = {value!r:.60} must be three numbers (r, g, b), each in [0, 1]")
+    r, g, b = (_unit(f"{what}[{i}]", v) for i, v in enumerate(value))
+    return (r, g, b)
+
+
+def check(m: Material) -> Material:
+    """``m`` if every field is in range, else a :class:`MaterialError` naming the field."""
+    where = f"material {m.name!r:.60}"
+    if not isinstance(m.name, str) or not m.name or len(m.name) > MAX_NAME or not (
+            m.name[0].isascii() and m.name[0].islower()) or not all(
+            c.isascii() and (c.islower() or c.isdigit() or c == "_") for c in m.name):
+        raise MaterialError(f"material name {m.name!r:.60} must be snake_case [a-z][a-z0-9_]*, at "
+                            f"most {MAX_NAME} characters")
+    lo, hi = MATERIAL.density_range
+    if m.material_class not in CLASSES:
+        raise MaterialError(f"{where}: material_class = {m.material_class!r:.40} is not one of "
+                            f"{', '.join(CLASSES)}")
+    return Material(m.name, _rgb(f"{where}: rgb", m.rgb), _unit(f"{where}: metalness", m.metalness),
+                    _unit(f"{where}: roughness", m.roughness),
+                    _unit(f"{where}: density", m.density, low=lo, high=hi, unit=" kg/m^3"),
+                    m.material_class, _unit(f"{where}: wear", m.wear))
+
+
+def declare(name: str, *, library: Mapping[str, Material], base: str | None = None,
+            rgb: Any = None, metalness: Any = None, roughness: Any = None, density: Any = None,
+            material_class: Any = None, wear: Any = None) -> Material:
+    """A new library entry: ``base``'s values (a name in ``library``) overridden by the ones
+    given; without ``base`` every value but ``wear`` is required.
+
+    Raises:
+        MaterialError: a bad name, a name already in ``library``, an unknown base, a missing
+            value, or a value out of range (the message states the value and the range).
+    """
+    if isinstance(name, str) and name in library:
+        what = "a built-in material" if name in MATERIALS else "declared twice"
+        raise MaterialError(f"material {name!r} is {what}; choose another name (base={name!r} "
+                            f"starts from its values)")
+    given = {"rgb": rgb, "metalness": metalness, "roughness": roughness, "density": density,
+             "material_class": material_class, "wear": wear}
+    if base is not None:
+        if not isinstance(base, str) or base not in library:
+            raise MaterialError(f"material {name!r:.60}: base {base!r:.60} is not a known material; "
+                                f"use one of: {', '.join(library)}")
+        start = library[base].as_dict()
+    else:
+        missing = [k for k, v in given.items() if v is None and k != "wear"]
+        if missing:
+            raise MaterialError(f"material {name!r:.60}: without base=... it needs {', '.join(missing)}")
+        start = {"wear": 0.0}
+    values = {**start, **{k: v for k, v in given.items() if v is not None}, "name": name}
+    return check(Material(values["name"], values["rgb"], values["metalness"], values["roughness"],
+                          values["density"], values["material_class"], values["wear"]))
+
+
+def library_to_json(library: Mapping[str, Material]) -> list[dict[str, Any]]:
+    """The library as JSON-safe rows (in order)."""
+    return [m.as_dict() for m in library.values()]
+
+
+def library_from_json(rows: Any) -> dict[str, Material]:
+    """Read :func:`library_to_json`'s rows back, checking every field.
+
+    Raises:
+        MaterialError: a row that is not a material, a bad field, a duplicated name.
+    """
+    if not isinstance(rows, list):
+        raise MaterialError(f"a material library is a list of entries, got {type(rows).__name__}")
+    out: dict[str, Material] = {}
+    fields = ("name", "rgb", "metalness", "roughness", "density", "material_class", "wear")
+    for i, row in enumerate(rows):
+        if not isinstance(row, dict) or set(row) != set(fields):
+            raise MaterialError(f"material entry {i} must have exactly the fields {', '.join(fields)}")
+        m = check(Material(*(row[f] for f in fields)))
+        if m.name in out:
+            raise MaterialError(f"material {m.name!r} appears twice in the library")
+        out[m.name] = m
+    return out
+
+
+def used(library: Mapping[str, Material], names: Any) -> dict[str, Material]:
+    """The entries of ``library`` named in ``names`` (the materials a model's parts use)."""
+    want = set(names)
+    return {k: v for k, v in library.items() if k in want}

@@ -17,12 +17,12 @@ def template(name: str) -> str:
 
 @lru_cache(maxsize=1)
 def reference() -> str:
-    """The program API reference: docstrings of part/frames/mate, mate types, materials."""
+    """The program API reference: docstrings of material/part/frames/mate, mate types, materials."""
     from .. import materials
     from ..mates import TYPES
     from ..program import api
     out = ["## The program API", inspect.cleandoc(api.__doc__ or "")]
-    for fn in (api.part, api.frames, api.mate):
+    for fn in (api.material, api.part, api.frames, api.mate):
         out.append(f"### {fn.__name__}{inspect.signature(fn)}\n{inspect.cleandoc(fn.__doc__ or '')}")
     out.append("## Mate types (type: DOF; fits, default first; every option: default, range, meaning)")
     for t in TYPES.values():
@@ -31,8 +31,9 @@ def reference() -> str:
         rows += [f"    - {option_line(k, o)}" for k, o in t.options.items()]
         out.append("\n".join(rows))
     out.append(conventions())
-    out.append("## Materials (key: class, density kg/m^3; parts are solid, so masses follow)\n" + ", ".join(
-        f"{m.name} ({m.material_class}, {m.density:g})" for m in materials.MATERIALS.values()))
+    out.append("## Built-in materials (key: class, density kg/m^3; parts are solid, so masses follow; "
+               "declare others with material(...))\n" + ", ".join(
+                   f"{m.name} ({m.material_class}, {m.density:g})" for m in materials.MATERIALS.values()))
     return "\n\n".join(out)
 
 

@@ -39,6 +39,7 @@ class RunState:
     baseline: int = 0
     source: str = ""
     per_part_s: dict[str, float] = field(default_factory=dict)
+    materials: dict[str, Any] = field(default_factory=dict)  # the materials stage's report
 
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)

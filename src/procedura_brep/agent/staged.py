@@ -1,5 +1,5 @@
 """The staged agent (DESIGN.md section 5, the paper's section 3): plan, one-direction review,
-mate-driven build one part per call, decoupled-critic refine, then the final build.
+mate-driven build one part per call, decoupled-critic refine, materials, then the final build.
 
 One frozen model answers every call through a :class:`~procedura_brep.llm.Client`; each call has
 a ``role`` (``plan``, ``review``, ``build``, ``critic``, ``fixer``) and a run-wide ``step``
@@ -31,6 +31,7 @@ from ..paths import write_atomic
 from ..program.model import CompiledModel
 from ..program.splice import SpliceError, empty_program, parse_reply, splice
 from .context import CommittedPart, build_request
+from .materials import materials_stage
 from .plan import Plan, PlanError, PlannedPart, parse_plan
 from . import reference as reference_image
 from .prompts import reference, template
@@ -135,6 +136,8 @@ class StagedRun:
                 self._build()
             if st.stage == "refine":
                 self._refine()
+            if st.stage == "materials":
+                materials_stage(self)
             if st.stage == "finish":
                 return self._finish("ok")
         except BudgetExceeded as exc:
@@ -341,7 +344,7 @@ class StagedRun:
 
     def _refine(self) -> None:
         if not self.options.refine:
-            self._advance("finish")
+            self._advance("materials")
             return
         model = self._current_model()
         parts = ", ".join(p.name for p in model.parts) if model else ""
@@ -354,7 +357,7 @@ class StagedRun:
         if source != self.state.source:
             self.state.source = source
             self._model = None
-        self._advance("finish")
+        self._advance("materials")
 
     # finish ----------------------------------------------------------------------------------
 
@@ -397,6 +400,7 @@ class StagedRun:
             "committed": [{"name": c.name, "warning": c.warning} for c in st.committed],
             "skipped": st.skipped,
             "refine": result.refine,
+            "materials": st.materials,
             "overhead_per_part_s": st.per_part_s,
             "overhead_median_s": sorted(per_part)[len(per_part) // 2] if per_part else None,
             "usage": self.client.ledger.summary(),

@@ -1,8 +1,9 @@
-"""Mass properties per link from exact part volumes and the material density table.
+"""Mass properties per link from exact part volumes and the model's material densities.
 
 Each part's mass is ``volume * density`` with the density from
-:data:`procedura_brep.materials.MATERIALS` (kg/m^3; e.g. steel 7850, aluminium 2700, ABS 1050,
-rubber 1200). Centre of mass and the inertia tensor about it come from OCCT's exact volume
+the model's material library (``CompiledModel.materials``: the built-in table
+:data:`procedura_brep.materials.MATERIALS`, kg/m^3, e.g. steel 7850, aluminium 2700, ABS 1050,
+rubber 1200, plus the program's own ``material(...)`` declarations). Centre of mass and the inertia tensor about it come from OCCT's exact volume
 integrals; parts combine with the parallel-axis theorem. Results are in SI (kg, m, kg m^2) and
 expressed in the link frame. A link never has zero mass or a singular inertia: tiny values are
 floored at :data:`MIN_MASS_KG` / :data:`MIN_INERTIA_KGM2`.
@@ -14,7 +15,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import materials
 from ..program.model import CompiledModel
 from .tree import Articulation
 
@@ -52,7 +52,7 @@ def part_mass(model: CompiledModel, name: str) -> MassProps:
     from OCP.GProp import GProp_GProps
 
     part = model.part(name)
-    rho = materials.get(part.material).density * 1e-9  # kg / mm^3
+    rho = model.material_of(part).density * 1e-9  # kg / mm^3
     props = GProp_GProps()
     BRepGProp.VolumeProperties_s(part.shape(), props)
     vol = abs(float(props.Mass()))

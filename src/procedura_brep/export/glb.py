@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import materials
 from ..program.model import CompiledModel
 from .meshes import part_mesh, smooth_normals
 
@@ -51,7 +50,7 @@ def glb_bytes(model: CompiledModel) -> bytes:
     scene.graph.update(frame_from="world", frame_to=root, matrix=GLTF_FROM_WORLD)
     for p in model.parts:
         mesh, normals = smooth_normals(part_mesh(p))
-        m = materials.get(p.material)
+        m = model.material_of(p)
         name = f"{p.name}_{p.material}"
         factors[name] = [float(c) for c in srgb_to_linear(m.rgb)] + [1.0]
         # trimesh reads float colours as 0..1 but stores them as 8 bits: the exact factor is

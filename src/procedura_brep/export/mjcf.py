@@ -30,7 +30,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .. import materials
 from ..articulation.mass import MassProps, link_masses
 from ..articulation.tree import Articulation, articulate
 from ..program.model import CompiledModel
@@ -97,7 +96,7 @@ def _geoms(spec, body, model: CompiledModel, name: str, frame: np.ndarray,
            assets: dict[str, bytes]) -> None:
     import mujoco
     part = model.part(name)
-    mat = materials.get(part.material)
+    mat = model.material_of(part)
     fname = f"{name}.stl"
     assets[fname] = stl_bytes(to_local_m(sim_mesh(part), frame))  # within MuJoCo's face limit
     spec.add_mesh(name=name, file=fname)

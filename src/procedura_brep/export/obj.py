@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import io
 
-from .. import materials
 from ..program.model import CompiledModel
 from .meshes import part_mesh
 
@@ -24,7 +23,7 @@ def mtl_text(model: CompiledModel) -> str:
     out = io.StringIO()
     out.write(f"# procedura-brep materials for {model.name}\n")
     for p in model.parts:
-        m = materials.get(p.material)
+        m = model.material_of(p)
         r, g, b = m.rgb
         out.write(f"\nnewmtl {mtl_name(p.name, p.material)}\n")
         out.write(f"Ka 0 0 0\nKd {r:.6f} {g:.6f} {b:.6f}\n")

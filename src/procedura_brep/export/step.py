@@ -152,7 +152,7 @@ def _build_document(model: CompiledModel, root_name: str) -> Any:
     from OCP.TopLoc import TopLoc_Location
     from OCP.XCAFDoc import XCAFDoc_ColorType, XCAFDoc_DocumentTool
 
-    from .. import kernel, materials
+    from .. import kernel
 
     doc = _new_document()
     shapes = XCAFDoc_DocumentTool.ShapeTool_s(doc.Main())
@@ -160,7 +160,7 @@ def _build_document(model: CompiledModel, root_name: str) -> Any:
     root = shapes.NewShape()
     TDataStd_Name.Set_s(root, TCollection_ExtendedString(root_name))
     for part in model.parts:
-        rgb = materials.get(part.material).rgb
+        rgb = model.material_of(part).rgb
         colour = Quantity_Color(*rgb, Quantity_TypeOfColor.Quantity_TOC_sRGB)
         label = shapes.AddShape(part.local_shape(), False, False)
         TDataStd_Name.Set_s(label, TCollection_ExtendedString(part.name))

@@ -31,9 +31,9 @@ from typing import Literal
 
 import numpy as np
 
-from .. import materials
 from ..articulation.mass import MassProps, link_masses
 from ..articulation.tree import Articulation, Joint, articulate
+from ..materials import get
 from ..program.model import CompiledModel
 from .meshes import collision_pieces, sim_mesh, stl_bytes, to_local_m
 
@@ -161,7 +161,7 @@ def urdf_text(model: CompiledModel, *, profile: Profile = "strict",
         ET.SubElement(mj, "compiler", angle="radian", fusestatic="false", discardvisual="false",
                       strippath="false", balanceinertia="true", autolimits="true")
     for mat in sorted({model.part(n).material for lk in art.links for n in lk.parts}):
-        m = materials.get(mat)
+        m = get(mat, model.materials)
         el = ET.SubElement(robot, "material", name=mat)
         ET.SubElement(el, "color", rgba=f"{vec(m.rgb)} 1")
     for lk in art.links:

@@ -26,9 +26,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import materials
 from ..articulation.mass import MassProps, link_masses
 from ..articulation.tree import Articulation, articulate
+from ..materials import Material, get
 from ..program.model import CompiledModel
 from .meshes import collision_pieces, part_mesh, to_local_m
 from .mjcf import quat, wheel_joints
@@ -64,9 +64,9 @@ def _mesh(stage, path: str, mesh):
     return prim
 
 
-def _material(stage, root: str, name: str):
+def _material(stage, root: str, m: Material):
     from pxr import Gf, Sdf, UsdShade
-    m = materials.get(name)
+    name = m.name
     mat = UsdShade.Material.Define(stage, f"{root}/Looks/{name}")
     sh = UsdShade.Shader.Define(stage, f"{root}/Looks/{name}/PreviewSurface")
     sh.CreateIdAttr("UsdPreviewSurface")
@@ -92,7 +92,7 @@ def usd_stage(model: CompiledModel, *, art: Articulation | None = None,
     stage.SetDefaultPrim(top.GetPrim())
     UsdPhysics.Scene.Define(stage, f"{root}/physicsScene")
     UsdPhysics.ArticulationRootAPI.Apply(top.GetPrim())
-    mats = {n: _material(stage, root, n) for n in sorted({p.material for p in model.parts})}
+    mats = {n: _material(stage, root, get(n, model.materials)) for n in sorted({p.material for p in model.parts})}
     for lk in art.links:
         path = f"{root}/{lk.name}"
         x = UsdGeom.Xform.Define(stage, path)

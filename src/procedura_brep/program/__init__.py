@@ -1,7 +1,7 @@
 """The program layer: format, parse, param edits, sandboxed compile, and the program API.
 
 ``from procedura_brep.program import *`` (the first line of every program) gives build123d's
-modelling vocabulary, ``math``, and :func:`part`, :func:`frames`, :func:`mate`. Names are
+modelling vocabulary, ``math``, and :func:`material`, :func:`part`, :func:`frames`, :func:`mate`. Names are
 resolved lazily (PEP 562) so that importing this package for parsing or editing does not pay
 build123d's multi-second import.
 """
@@ -14,7 +14,7 @@ from typing import Any
 #: build123d names a program must not see: anything that reads or writes files or meshes,
 #: or registers fonts from the file system.
 _DENY_SUBSTRINGS = ("import", "export", "Export", "Mesher", "Import", "FontManager", "fonts")
-_API = ("part", "frames", "mate")
+_API = ("material", "part", "frames", "mate")
 _LAZY = {"compile_source": ".sandbox", "Worker": ".sandbox", "CompileOptions": ".sandbox",
          "parse_sections": ".sections", "Sections": ".sections", "set_params": ".edit"}
 

@@ -2,7 +2,7 @@
 
 A program starts with ``from procedura_brep.program import *``, which brings in build123d's
 modelling vocabulary (solids, sketches, operations, ``Location``, ``Axis``, ``Align`` ...),
-``math``, and the three declarations below. File import/export functions are *not* exported:
+``math``, and the declarations below (``material``, ``part``, ``frames``, ``mate``). File import/export functions are *not* exported:
 programs never touch files.
 
 Example (a complete two-part program)::
@@ -19,12 +19,14 @@ Example (a complete two-part program)::
     # === helpers ===
 
     # === parts ===
+    material("post_paint", base="painted_steel", rgb=(0.1, 0.3, 0.8), roughness=0.4)
+
     @part(detail="silhouette", material="cast_iron", description="square base")
     def base():
         b = Box(base_w, base_w, base_t, align=(Align.CENTER, Align.CENTER, Align.MIN))
         return fillet(b.edges().filter_by(Axis.Z), radius=6)
 
-    @part(detail="major", material="brushed_steel", description="post on the base centre")
+    @part(detail="major", material="post_paint", description="post on the base centre")
     def post():
         return Cylinder(post_d / 2, post_h, align=(Align.CENTER, Align.CENTER, Align.MIN))
 
@@ -48,6 +50,36 @@ from .registry import DETAILS, MateDecl, PartDecl, active
 MAX_PIECES: int = 1000
 
 
+def material(name: str, *, base: str | None = None, rgb: tuple[float, float, float] | None = None,
+             roughness: float | None = None, metalness: float | None = None,
+             density: float | None = None, material_class: str | None = None,
+             wear: float | None = None) -> None:
+    """Declare a PBR material of this program (a module-level call at the top of the parts
+    section); parts then name it in ``@part(material=...)`` like a built-in one.
+
+    Args:
+        name: snake_case, not a built-in material's name.
+        base: a built-in (or earlier declared) material whose values the others override;
+            without it, ``rgb``, ``roughness``, ``metalness``, ``density`` and
+            ``material_class`` are all required.
+        rgb: base colour (albedo), three numbers each in [0, 1] (sRGB).
+        roughness: 0 mirror .. 1 matte, in [0, 1].
+        metalness: 0 dielectric .. 1 metal, in [0, 1].
+        density: kg/m^3, in ``config.MATERIAL.density_range`` (1 .. 25000); masses follow.
+        material_class: one of metal, polymer, elastomer, ceramic, composite, wood, glass.
+        wear: 0 new .. 1 worn, in [0, 1] (default 0, or the base's).
+
+    Example::
+
+        material("hull_paint", base="painted_steel", rgb=(0.8, 0.1, 0.1), roughness=0.4, wear=0.2)
+        material("tyre_rubber", rgb=(0.05, 0.05, 0.05), roughness=0.9, metalness=0.0,
+                 density=1150, material_class="elastomer")
+    """
+    values = {"base": base, "rgb": rgb, "roughness": roughness, "metalness": metalness,
+              "density": density, "material_class": material_class, "wear": wear}
+    active().add_material(name, _caller_line(), **values)
+
+
 def part(*, detail: str = "major", material: str = "steel", description: str = "",
          pieces: int = 1) -> Callable[[Callable[[], Any]], Callable[[], Any]]:
     """Register a function as a part. The part's name is the function's name (snake_case).
@@ -59,7 +91,8 @@ def part(*, detail: str = "major", material: str = "steel", description: str = "
     Args:
         detail: ``"silhouette"`` (the big shapes), ``"major"`` (major features) or ``"sub"``
             (small sub-features such as bolts and knobs).
-        material: a key of the material library (``steel``, ``aluminium``, ``rubber`` ...).
+        material: a material of the library: a built-in key (``steel``, ``aluminium``,
+            ``rubber`` ...) or one the program declares with :func:`material`.
         description: one line: what the part is, its size and where it sits.
         pieces: how many disconnected solids the part is on purpose (default 1); any other
             detached piece is a gate finding.

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..findings import Finding, cap_text, failed  # noqa: F401 - Finding, cap_text re-exported
+from ..materials import MATERIALS, Material, default_library, get, library_to_json
 
 _MESHES: dict[str, Any] = {}
 _MESH_CACHE_SIZE = 512
@@ -114,7 +115,12 @@ class CompiledMate:
 
 @dataclass
 class CompiledModel:
-    """The whole assembly in plan order (the first part is the root)."""
+    """The whole assembly in plan order (the first part is the root).
+
+    ``materials`` is the library the program was compiled with: the built-in table followed by
+    the program's own ``material(...)`` declarations. Exports, renders and masses read a part's
+    material from it (:meth:`material_of`), never from the global table.
+    """
 
     name: str
     params: dict[str, Any]
@@ -122,6 +128,16 @@ class CompiledModel:
     mates: list[CompiledMate]
     findings: list[Finding] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
+    materials: dict[str, Material] = field(default_factory=default_library)
+
+    def material_of(self, part: CompiledPart) -> Material:
+        """The library entry of ``part``'s material (a MaterialError lists the library)."""
+        return get(part.material, self.materials)
+
+    @property
+    def declared_materials(self) -> dict[str, Material]:
+        """The program's own materials (the library minus the built-ins)."""
+        return {k: m for k, m in self.materials.items() if k not in MATERIALS}
 
     def part(self, name: str) -> CompiledPart:
         for p in self.parts:
@@ -151,6 +167,7 @@ def to_json(model: CompiledModel) -> dict[str, Any]:
                   for p in model.parts],
         "mates": [{**{k: v for k, v in m.__dict__.items() if k != "world_frame"},
                    "world_frame": _m(m.world_frame)} for m in model.mates],
+        "materials": library_to_json(model.declared_materials),
     }
 
 

@@ -1,4 +1,4 @@
-"""Declarations recorded while a program module executes: parts, frames, mates.
+"""Declarations recorded while a program module executes: materials, parts, frames, mates.
 
 Kept free of build123d so the parent process can import it cheaply.
 """
@@ -9,7 +9,9 @@ import re
 from dataclasses import dataclass, field
 from typing import Any, Callable, Literal
 
+from ..config import MATERIAL
 from ..errors import MateError, ProgramFormatError
+from ..materials import MATERIALS, Material, MaterialError, declare
 
 Detail = Literal["silhouette", "major", "sub"]
 DETAILS: tuple[str, ...] = ("silhouette", "major", "sub")
@@ -57,6 +59,24 @@ class Registry:
     frames: dict[str, dict[str, Any]] = field(default_factory=dict)
     frame_lines: dict[str, int] = field(default_factory=dict)
     mates: list[MateDecl] = field(default_factory=list)
+    materials: dict[str, Material] = field(default_factory=dict)  # the program's own, in order
+
+    @property
+    def library(self) -> dict[str, Material]:
+        """The built-in materials followed by the program's own declarations."""
+        return {**MATERIALS, **self.materials}
+
+    def add_material(self, name: str, line: int | None, **values: Any) -> None:
+        """Validate and record a ``material(...)`` declaration (a bad one is a format error
+        with the line, the value and the range)."""
+        if len(self.materials) >= MATERIAL.max_declared:
+            raise ProgramFormatError(f"a program may declare at most {MATERIAL.max_declared} "
+                                     f"materials (config.MATERIAL.max_declared)", line=line)
+        try:
+            m = declare(name, library=self.library, **values)
+        except MaterialError as exc:
+            raise ProgramFormatError(str(exc), line=line) from None
+        self.materials[m.name] = m
 
     def add_part(self, decl: PartDecl) -> None:
         if not valid_name(decl.name):

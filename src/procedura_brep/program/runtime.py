@@ -25,7 +25,6 @@ import numpy as np
 from ..config import SANDBOX, SandboxLimits
 from ..errors import MateError, ProceduraError, ProgramFormatError
 from ..findings import failed
-from ..materials import MATERIALS
 from ..mates import check_options, get_type
 from ..mates import placement as pl
 from . import cache, caps, guards, policy, registry
@@ -211,10 +210,13 @@ def _exec_module(b: _Build, source: str, glb: dict[str, Any]) -> None:
 
 
 def _check_materials(b: _Build, reg: registry.Registry) -> None:
+    """Every part names a material of the library (built-ins plus the program's own)."""
+    library = reg.library
     for decl in reg.parts.values():
-        if not isinstance(decl.material, str) or decl.material not in MATERIALS:
+        if not isinstance(decl.material, str) or decl.material not in library:
             b.fail("material", f"part {decl.name}: unknown material {decl.material!r:.60}; use one "
-                               f"of: {', '.join(MATERIALS)}", part=decl.name, line=decl.line)
+                               f"of: {', '.join(library)} (or declare it with material(...))",
+                   part=decl.name, line=decl.line)
 
 
 def _check_model_caps(b: _Build, reg: registry.Registry) -> None:
@@ -483,4 +485,4 @@ def _serialise(b: _Build, reg: registry.Registry, params: dict[str, Any],
             residual_mm=res[0], residual_rad=res[1], line=decl.line))
     b.timings["compile_s"] = total
     clean = {k: v for k, v in params.items() if isinstance(v, (int, float, bool, str))}
-    return CompiledModel(b.name, clean, parts, cms, b.findings, b.timings)
+    return CompiledModel(b.name, clean, parts, cms, b.findings, b.timings, reg.library)

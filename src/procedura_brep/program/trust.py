@@ -19,10 +19,10 @@ from typing import Any
 
 import numpy as np
 
-from ..config import SANDBOX
+from ..config import MATERIAL, SANDBOX
 from ..errors import ProceduraError
 from ..findings import SEVERITIES
-from ..materials import MATERIALS
+from ..materials import MATERIALS, Material, MaterialError, library_from_json
 from ..mates import TYPES
 from .model import CompiledMate, CompiledModel, CompiledPart, Finding, cap_text
 from .registry import DETAILS
@@ -136,13 +136,25 @@ def finding_from_json(f: Any, where: str) -> Finding:
                    severity=sev, **opt_num)
 
 
-def _part(p: Any, i: int) -> CompiledPart:
+def _library(rows: Any) -> dict[str, Material]:
+    """The built-in table plus the program's declared materials, every field checked."""
+    try:
+        declared = library_from_json(_list(rows, "materials", MATERIAL.max_declared))
+    except MaterialError as exc:
+        raise _bad("materials", f"are invalid: {exc}") from None
+    shadow = sorted(set(declared) & set(MATERIALS))
+    if shadow:
+        raise _bad("materials", f"redeclare the built-in material(s) {', '.join(shadow)}")
+    return {**MATERIALS, **declared}
+
+
+def _part(p: Any, i: int, library: dict[str, Material]) -> CompiledPart:
     where = f"parts[{i}]"
     p = _dict(p, where, 32)
     name = _name(p.get("name"), f"{where}.name")
     where = f"part {name}"
     material = p.get("material")
-    if not isinstance(material, str) or material not in MATERIALS:
+    if not isinstance(material, str) or material not in library:
         raise _bad(f"{where}.material", f"= {material!r:.40} is not a library material")
     if p.get("detail") not in DETAILS:
         raise _bad(f"{where}.detail", f"is not one of {', '.join(DETAILS)}")
@@ -223,9 +235,10 @@ def model_from_json(d: Any, *, name: str | None = None) -> CompiledModel:
     """
     d = _dict(d, "the result", 16)
     parts_in = _list(d.get("parts"), "parts", SANDBOX.max_parts)
+    library = _library(d.get("materials", []))
     parts: dict[str, CompiledPart] = {}
     for i, p in enumerate(parts_in):
-        cp = _part(p, i)
+        cp = _part(p, i, library)
         if cp.name in parts:
             raise _bad(f"part {cp.name}", "appears twice")
         parts[cp.name] = cp
@@ -242,4 +255,4 @@ def model_from_json(d: Any, *, name: str | None = None) -> CompiledModel:
     findings = [finding_from_json(f, f"findings[{i}]") for i, f in enumerate(_list(d.get("findings", []), "findings", 1000))]
     model_name = name if name is not None else _name(d.get("name"), "name", IDENT)
     return CompiledModel(name=model_name, params=params, parts=list(parts.values()), mates=mates,
-                         findings=findings, timings=timings)
+                         findings=findings, timings=timings, materials=library)

@@ -39,7 +39,8 @@ def image_key(model: CompiledModel, geometry: str, settings: dict[str, Any]) -> 
     """sha256 of the geometry key, the settings, part materials and mate frames."""
     extra = {
         "v": RENDER_VERSION,
-        "materials": [(p.name, p.material) for p in model.parts],
+        "materials": [(p.name, p.material, m.as_dict() if (m := model.materials.get(p.material)) else None)
+                      for p in model.parts],
         "mates": [(m.name, np.round(np.asarray(m.world_frame, float), 6).tolist()) for m in model.mates],
         "frames": [(p.name, sorted(p.frames)) for p in model.parts],
         "colors": sorted(part_colors([p.name for p in model.parts]).items()),

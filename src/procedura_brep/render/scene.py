@@ -70,11 +70,12 @@ def part_mesh(part: CompiledPart) -> tuple[np.ndarray, np.ndarray]:
     return out
 
 
-def material_of(part: CompiledPart) -> materials.Material:
-    """The part's material, falling back to steel (logged) for an unknown key."""
+def material_of(model: CompiledModel, part: CompiledPart) -> materials.Material:
+    """The part's material from the model's library, falling back to steel (logged) for an
+    unknown key."""
     try:
-        return materials.get(part.material)
-    except ValueError:
+        return model.material_of(part)
+    except materials.MaterialError:
         log.warning("part %s: unknown material %r, rendering as steel", part.name, part.material)
         return materials.get("steel")
 
@@ -92,7 +93,7 @@ def vertex_array(model: CompiledModel, colors: dict[str, tuple[int, int, int]],
         pos, nrm = part_mesh(part)
         if not len(pos):
             continue
-        mat = material_of(part)
+        mat = material_of(model, part)
         attrs = np.array([*(c / 255 for c in colors[part.name]), *mat.rgb, mat.metalness,
                           mat.roughness, i + 1], np.float32)
         rows.append(np.hstack([pos, nrm, np.broadcast_to(attrs, (len(pos), len(attrs)))]))
