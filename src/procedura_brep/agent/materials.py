@@ -25,6 +25,7 @@ from typing import Any, Protocol
 
 from ..config import MATERIAL
 from ..errors import ProceduraError
+from ..findings import blocking
 from ..llm import Image, Message
 from ..materials import CLASSES, MATERIALS
 from ..paths import write_atomic
@@ -144,7 +145,7 @@ class MaterialsBench:
             model = self.host.tools.compile(new, self.host.name)
         except (PaintError, ProceduraError) as exc:
             return False, str(exc)
-        errors = [f for f in model.findings if f.severity == "error"]
+        errors = blocking(model.findings)
         if errors:
             return False, findings_text(errors, 6).replace("\n", " ")
         before = {p.name: p.digest for p in self.model.parts}
