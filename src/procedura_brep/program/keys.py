@@ -79,6 +79,13 @@ def engine_digest() -> str:
     return h.hexdigest()
 
 
+def mutable(value: Any) -> bool:
+    """A plain value a part could change in place (a list, dict or set, or one inside a tuple)."""
+    if isinstance(value, (list, dict, set)):
+        return True
+    return isinstance(value, (tuple, frozenset)) and any(mutable(v) for v in value)
+
+
 def plain(value: Any) -> bool:
     """A value a key may hash by ``repr``: numbers, strings, None and containers of them."""
     if isinstance(value, _PLAIN):
@@ -152,10 +159,16 @@ def scan_module(source: str) -> ModuleScan:
         why = _opaque(stmt)
         if why:
             scan.opaque.append((stmt.lineno, why))
-    for node in ast.walk(tree):
+    # the functions a key may name: module-level defs and methods (a def nested in a function
+    # is part of its text; one under an ``if`` is opaque code, and keyed by its lines)
+    todo: list[ast.stmt] = list(body)
+    while todo:
+        node = todo.pop()
         if isinstance(node, ast.FunctionDef):
             first = min([node.lineno] + [d.lineno for d in node.decorator_list])
             scan.defs.setdefault(first, node)
+        elif isinstance(node, ast.ClassDef):
+            todo += node.body
     return scan
 
 
@@ -171,8 +184,19 @@ class _Keyer:
                  scan: ModuleScan) -> None:
         self.source, self.lines = source, source.splitlines()
         self.glb, self.params, self.scan = glb, params, scan
+        self.volatile = False  # the current part's key hashed a value a part could mutate
         import procedura_brep.program as api
         self.api = api
+
+    def value(self, text: str, value: Any, out: list[str]) -> None:
+        out.append(f"{text}={value!r}")
+        self.volatile |= mutable(value)
+
+    def state(self, fn: Any, out: list[str]) -> bool:
+        ok = function_state(fn, out)
+        if ok:
+            self.volatile |= mutable(_state_values(fn))
+        return ok
 
     def text(self, code: types.CodeType, *, skip_part: bool = False) -> str:
         """A function's text without line numbers: decorators (but ``@part`` when
@@ -214,7 +238,7 @@ class _Keyer:
                 continue
             seen.add(n)
             if n in self.params:
-                out.append(f"param {n}={self.params[n]!r}")
+                self.value(f"param {n}", self.params[n], out)
                 continue
             if n not in self.glb:
                 continue  # a builtin or an attribute name
@@ -222,10 +246,10 @@ class _Keyer:
             fn_code = self.program_fn(obj)
             if fn_code is not None:
                 out.append(f"fn {n}:\n{self.text(fn_code)}")
-                ok &= function_state(obj, out)
+                ok &= self.state(obj, out)
                 ok &= self.walk(fn_code, seen, out)
             elif plain(obj):
-                out.append(f"value {n}={obj!r}")  # a module-level constant outside the params
+                self.value(f"value {n}", obj, out)  # a module-level constant outside the params
             elif self.library(n, obj):
                 continue  # build123d, math or the declarations, as imported
             elif isinstance(obj, type) and obj.__module__ == self.glb.get("__name__"):
@@ -249,27 +273,32 @@ class _Keyer:
             code = self.program_fn(val)
             if code is not None:
                 out.append(f"method {attr}:\n{self.text(code)}")
-                ok &= function_state(val, out)
+                ok &= self.state(val, out)
                 ok &= self.walk(code, seen, out)
             elif attr in ("__module__", "__qualname__", "__doc__", "__dict__", "__weakref__",
                           "__firstlineno__", "__static_attributes__"):
                 continue
             elif plain(val):
-                out.append(f"attr {attr}={val!r}")
+                self.value(f"attr {attr}", val, out)
             else:
                 ok = False
         return ok
 
 
-def function_state(fn: Any, out: list[str]) -> bool:
-    """Hash a program function's default arguments and closure cells (evaluated when it was
-    defined, so not visible in its source); False when one is not a plain value."""
+def _state_values(fn: Any) -> tuple[Any, ...]:
     state = [getattr(fn, "__defaults__", None), getattr(fn, "__kwdefaults__", None)]
     for cell in getattr(fn, "__closure__", None) or ():
         try:
             state.append(cell.cell_contents)
         except ValueError:  # an empty cell
             state.append(None)
+    return tuple(state)
+
+
+def function_state(fn: Any, out: list[str]) -> bool:
+    """Hash a program function's default arguments and closure cells (evaluated when it was
+    defined, so not visible in its source); False when one is not a plain value."""
+    state = list(_state_values(fn))
     if not all(plain(v) for v in state):
         return False
     out.append(f"state {state!r}")
@@ -282,23 +311,31 @@ def _decl_options(decl: PartDecl) -> str:
     return "options " + repr({k: v for k, v in opts.items() if k not in UNKEYED_OPTIONS})
 
 
-def _mate_rows(name: str, mates: list[dict[str, Any]]) -> list[str]:
-    rows = []
+def _mate_rows(mates: list[dict[str, Any]]) -> dict[str, list[str]]:
+    """Part name -> one row per mate that adds a feature to it, in declaration order."""
+    rows: dict[str, list[str]] = {}
     for m in mates:
         d = m["decl"]
         for role, frame in (("child", "fc"), ("parent", "fp")):
-            if getattr(d, role) == name:
-                rows.append(json.dumps({
-                    "mate": d.name, "role": role, "type": m["type"].name, "d": m["d"],
-                    "fit": m["fit"].as_dict(), "options": m["options"],
-                    "frame": np.round(m[frame], 12).tolist()}, sort_keys=True, default=str))
+            rows.setdefault(getattr(d, role), []).append(json.dumps({
+                "mate": d.name, "role": role, "type": m["type"].name, "d": m["d"],
+                "fit": m["fit"].as_dict(), "options": m["options"],
+                "frame": np.round(m[frame], 12).tolist()}, sort_keys=True, default=str))
     return rows
 
 
 def part_keys(source: str, reg: Registry, params: dict[str, Any], mates: list[dict[str, Any]],
-              glb: dict[str, Any], *, scan: ModuleScan | None = None) -> dict[str, str]:
+              glb: dict[str, Any], *, scan: ModuleScan | None = None,
+              only: set[str] | None = None, volatile: set[str] | None = None) -> dict[str, str]:
     """The cache key of every declared part (see the module docstring); ``""`` for a part that
-    reads module-level state the key cannot cover (it is rebuilt on every compile)."""
+    reads module-level state the key cannot cover (it is rebuilt on every compile).
+
+    Args:
+        scan: :func:`scan_module` of ``source`` (computed when not given).
+        only: key these parts only.
+        volatile: filled with the parts whose key hashed a value a running part could change
+            in place (a list, dict or set): only those need keying again after the parts ran.
+    """
     scan = scan_module(source) if scan is None else scan
     keyer = _Keyer(source, glb, params, scan)
     whole: list[str] = []
@@ -306,15 +343,21 @@ def part_keys(source: str, reg: Registry, params: dict[str, Any], mates: list[di
     if scan.opaque or shadowed:
         whole = ["module:\n" + "\n".join(ln for i, ln in enumerate(keyer.lines, 1)
                                          if i not in scan.doc)]
+    rows = _mate_rows(mates)
     keys: dict[str, str] = {}
     for name, decl in reg.parts.items():
+        if only is not None and name not in only:
+            continue
         code = decl.fn.__code__
         parts = [engine_digest(), f"part {name}", _decl_options(decl),
                  keyer.text(code, skip_part=True), *whole]
-        if not (function_state(decl.fn, parts) & keyer.walk(code, set(), parts)):
+        keyer.volatile = False
+        if not (keyer.state(decl.fn, parts) & keyer.walk(code, set(), parts)):
             keys[name] = ""  # reads module state that is not hashable: never cached
             continue
-        parts += _mate_rows(name, mates)
+        if keyer.volatile and volatile is not None:
+            volatile.add(name)
+        parts += rows.get(name, [])
         keys[name] = hashlib.sha256("\n".join(parts).encode()).hexdigest()
     return keys
 

@@ -178,7 +178,8 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
         return CompiledModel(name, params, [], [], b.findings, b.timings)
     mates = _resolve_mates(b, reg, params)
     scan = keys.scan_module(source)
-    part_keys = keys.part_keys(source, reg, params, mates, glb, scan=scan)
+    volatile: set[str] = set()
+    part_keys = keys.part_keys(source, reg, params, mates, glb, scan=scan, volatile=volatile)
     hits = _load_cached(b, part_keys, cache_dir)
     _eval_parts(b, reg, hits, params, glb)
     contextvars.Context().run(_apply_features, b, reg, mates, hits)
@@ -188,10 +189,12 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     if changed:
         b.fail("policy", f"the program modified build123d's class-level table(s) "
                          f"{', '.join(changed[:5])}; programs may not change the kernel")
-    # state a part read that its key does not cover (a part that mutated a module-level value
-    # another part reads): those keys are dropped, so nothing stale is cached
-    after = keys.part_keys(source, reg, params, mates, glb, scan=scan)
-    part_keys = {n: k for n, k in part_keys.items() if k and after.get(n) == k}
+    # state a part read that its key does not cover (a part that mutated a module-level list
+    # or dict another part reads): those keys are dropped, so nothing stale is cached. Only a
+    # key that hashed such a value can change (programs cannot rebind module names).
+    after = keys.part_keys(source, reg, params, mates, glb, scan=scan, only=volatile)
+    part_keys = {n: k for n, k in part_keys.items()
+                 if k and (n not in volatile or after.get(n) == k)}
     b.timings["cache_hits"] = float(len(hits))
     return _serialise(b, reg, params, mates, time.perf_counter() - t0, part_keys)
 
