@@ -105,10 +105,11 @@ def test_material_and_description_edits_keep_the_cache(w):
 
 
 @pytest.mark.parametrize("statement", [
-    "for k in range(2):\n    pass\n",
+    "for k in range(2):\n    len([k])\n",
     "len([1, 2])\n",
+    "try:\n    pass\nexcept ValueError:\n    pass\n",
     "from math import *\n",
-], ids=["loop", "bare-call", "star-import"])
+], ids=["loop-of-calls", "bare-call", "try", "star-import"])
 def test_opaque_module_code_makes_every_key_whole_program(w, statement):
     """Module code the keys cannot see through: the same program hits, any edit misses all."""
     src = helpers(LAMP, statement)
@@ -117,6 +118,15 @@ def test_opaque_module_code_makes_every_key_whole_program(w, statement):
     assert rebuilt(again) == set()
     edited = compiled(helpers(src, "def unused():\n    return 1\n\n"), worker=w)
     assert rebuilt(edited) == ALL
+
+
+def test_declarations_in_a_loop_keep_per_part_keys(w):
+    """golden/rover declares frames and mates in loops: those stay visible to the keys."""
+    src = LAMP.replace('frames("base", top=Location((0, 0, base_t)))',
+                       'for name in ("base",):\n    frames(name, top=Location((0, 0, base_t)))')
+    compiled(src, worker=w)
+    assert rebuilt(compiled(helpers(src, "def unused():\n    return 1\n\n"), worker=w)) == set()
+    assert rebuilt(compiled(set_params(src, {"pin_d": 9.0}), worker=w)) == {"post", "arm"}
 
 
 def test_splicing_part_k_plus_1_recompiles_it_and_its_partner(w):
@@ -136,11 +146,11 @@ def test_a_splice_with_its_own_helper_and_param_recompiles_only_it_and_its_partn
     body = ('@part(detail="sub", material="brass", description="knob on the top block")\n'
             "def knob():\n    return knob_body()\n")
     reply = reply_text(part="knob", params=["knob_d = 14.0  # mm, knob diameter"],
-                       helpers="def knob_body():\n    return Cylinder(knob_d / 2, 9, "
-                               "align=(Align.CENTER, Align.CENTER, Align.MIN))\n",
+                       helpers=("def knob_body():\n    return Cylinder(knob_d / 2, 9, "
+                                "align=(Align.CENTER, Align.CENTER, Align.MIN))\n"),
                        body=body, frames=['frames("knob", foot=Location((0, 0, 0)))'],
-                       mates=[f'mate("knob.foot", "p{k - 1}.top", "peg_socket", nominal="peg_d", '
-                              f'fit="clearance", depth=5)'])
+                       mates=[(f'mate("knob.foot", "p{k - 1}.top", "peg_socket", nominal="peg_d", '
+                               'fit="clearance", depth=5)')])
     m = compiled(splice(tower(k), reply).source, worker=w)
     assert rebuilt(m) == {f"p{k - 1}", "knob"}
 

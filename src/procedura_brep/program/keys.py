@@ -2,12 +2,12 @@
 
 A part's key (:func:`part_keys`) hashes:
 
-* the engine (:func:`engine_digest`: the package version, build123d's, and the source of the
-  feature macros and fits that turn a part into its final solid);
+* the engine (:func:`engine_digest`: the package, build123d and OCP versions and the source
+  of the feature macros and fits that turn a part into its final solid);
 * the part's own function: its ``def`` through its last line, its other decorators, its
   default arguments and closure cells, and the ``@part`` options that are not
   :data:`UNKEYED_OPTIONS`;
-* everything the function reads by name, transitively (:func:`walk`): the source and state of
+* everything the function reads by name, transitively (``_Keyer.walk``): the source and state of
   every program function and class it calls or references (helper -> helper -> ...), a
   class's program base classes, and the values of the params and other plain module-level
   constants (numbers, strings, tuples/lists/dicts of them) any of those read;
@@ -23,11 +23,13 @@ Where the key cannot see what a part may depend on, it is conservative, never st
 * a part that reads a module-level object that is not a plain value (``ARM = [Box(...)]``,
   a function with such a default, an instance) gets the empty key: it is rebuilt on every
   compile and never stored (a part could change such an object while it runs);
-* module-level statements other than imports, ``def``/``class``, assignments to plain names,
-  the declaration calls :data:`DECLARATION_CALLS` and string literals (a bare call, a loop, an
-  ``if``, a ``with``, an item assignment, ``from math import *`` ...) are listed by
-  :func:`scan_module`; when there is any, every key also hashes the whole program text
-  (outside the module docstring): any edit anywhere then rebuilds every part;
+* module-level code acts on parts through the values it binds (hashed where a part reads
+  them); a statement that runs only for its side effect is what a key cannot see. Anything
+  but imports, ``def``/``class``, assignments to names, string literals, the declaration
+  calls :data:`DECLARATION_CALLS`, and ``for``/``while``/``if`` blocks made of those (a bare
+  call, a ``with`` or ``try`` block, an item assignment, ``del``, ``from math import *`` ...)
+  is listed by :func:`scan_module`; when there is any, every key also hashes the whole
+  program text (outside the module docstring): any edit anywhere then rebuilds every part;
 * the compiler recomputes the keys after the parts ran and drops any that changed (a part that
   changed a value another part reads).
 
@@ -65,14 +67,15 @@ _MISSING = object()
 
 @lru_cache(maxsize=1)
 def engine_digest() -> str:
-    """Hash of the code that turns a part into its final solid (invalidates on upgrades)."""
+    """Hash of the code that turns a part into its final solid (invalidates on upgrades of
+    this package, build123d or OCP)."""
+    import build123d
+    import OCP
+
     from .. import __version__
     h = hashlib.sha256(__version__.encode())
-    try:
-        from importlib.metadata import version
-        h.update(version("build123d").encode())
-    except Exception:  # noqa: BLE001 - metadata missing: the source hashes below still apply
-        pass
+    for module in (build123d, OCP):  # both imported already: no file is read for them
+        h.update(f"{module.__name__} {getattr(module, '__version__', '?')}".encode())
     here = Path(__file__).resolve().parent.parent / "mates"
     for name in ("features.py", "fits.py", "vocabulary.py"):
         h.update((here / name).read_bytes())
@@ -139,7 +142,11 @@ def _opaque(stmt: ast.stmt) -> str | None:
             return None
         if isinstance(v, ast.Call) and isinstance(v.func, ast.Name) and v.func.id in DECLARATION_CALLS:
             return None
-        return "a module-level expression"
+        return "a module-level expression run for its side effect"
+    if isinstance(stmt, (ast.For, ast.While, ast.If)):  # a loop of frames(...) or mate(...)
+        if isinstance(stmt, ast.For) and not _names_only(stmt.target):
+            return "a loop assigning into an object"
+        return next((why for s in stmt.body + stmt.orelse if (why := _opaque(s))), None)
     return f"a module-level {type(stmt).__name__.lower()} statement"
 
 

@@ -18,7 +18,7 @@ if TYPE_CHECKING:
     from procedura_brep.program.sandbox import Worker
 
 
-def cpart(name: str, shape: Any, placement: Any = None, **frames: Any) -> "CompiledPart":
+def cpart(name: str, shape: Any, placement: Any = None, **frames: Any) -> CompiledPart:
     """A CompiledPart from a build123d shape (local coords) and a world placement."""
     from procedura_brep import kernel
     from procedura_brep.program.model import CompiledPart
@@ -29,7 +29,7 @@ def cpart(name: str, shape: Any, placement: Any = None, **frames: Any) -> "Compi
 
 
 def peg_model(d: float = 10.0, fit: str = "clearance", *, lift: float = 0.0,
-              interference_scale: float | None = None, depth: float | None = None) -> "CompiledModel":
+              interference_scale: float | None = None, depth: float | None = None) -> CompiledModel:
     """A post with a peg seated in a socket in a base block; the mate plane is world z = 0.
 
     ``lift`` moves the post along the mate axis (+ hovers, - gouges); ``interference_scale``
@@ -60,8 +60,8 @@ def peg_model(d: float = 10.0, fit: str = "clearance", *, lift: float = 0.0,
     return CompiledModel(name="peg", params={"peg_d": d}, parts=parts, mates=[mate])
 
 
-def compiled(source: str, *, worker: "Worker | None" = None, name: str = "model",
-             cache: bool = True) -> "CompiledModel":
+def compiled(source: str, *, worker: Worker | None = None, name: str = "model",
+             cache: bool = True) -> CompiledModel:
     """Compile ``source`` in ``worker`` (default: the shared warm worker).
 
     Raises:
@@ -78,7 +78,7 @@ def compiled(source: str, *, worker: "Worker | None" = None, name: str = "model"
     return model
 
 
-def rebuilt(model: "CompiledModel") -> set[str]:
+def rebuilt(model: CompiledModel) -> set[str]:
     """The parts a compile ran (each has a ``part:<name>`` timing); the others came from the
     part cache (or failed before they ran)."""
     return {k.split(":", 1)[1] for k in model.timings if k.startswith("part:")}
