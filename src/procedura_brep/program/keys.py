@@ -40,11 +40,10 @@ from __future__ import annotations
 
 import ast
 import hashlib
-import json
 import math
 import types
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cache, lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -77,8 +76,8 @@ def engine_digest() -> str:
     for module in (build123d, OCP):  # both imported already: no file is read for them
         h.update(f"{module.__name__} {getattr(module, '__version__', '?')}".encode())
     here = Path(__file__).resolve().parent.parent / "mates"
-    for name in ("features.py", "fits.py", "vocabulary.py"):
-        h.update((here / name).read_bytes())
+    for path in sorted(here.rglob("*.py")):  # mate types, fits, feature macros, placement
+        h.update(path.relative_to(here).as_posix().encode() + b"\0" + path.read_bytes())
     return h.hexdigest()
 
 
@@ -179,6 +178,16 @@ def scan_module(source: str) -> ModuleScan:
     return scan
 
 
+@cache
+def _api_object(name: str) -> Any:
+    """What ``from procedura_brep.program import *`` binds as ``name`` (or a sentinel)."""
+    import procedura_brep.program as api
+    try:
+        return getattr(api, name)
+    except AttributeError:
+        return _MISSING
+
+
 def _is_part_decorator(node: ast.expr) -> bool:
     call = node.func if isinstance(node, ast.Call) else node
     return isinstance(call, ast.Name) and call.id == "part"
@@ -192,8 +201,6 @@ class _Keyer:
         self.source, self.lines = source, source.splitlines()
         self.glb, self.params, self.scan = glb, params, scan
         self.volatile = False  # the current part's key hashed a value a part could mutate
-        import procedura_brep.program as api
-        self.api = api
 
     def value(self, text: str, value: Any, out: list[str]) -> None:
         out.append(f"{text}={value!r}")
@@ -222,10 +229,7 @@ class _Keyer:
         """``obj`` is what the program API or ``math`` binds (an import, kept as imported)."""
         if obj is math or getattr(math, name, _MISSING) is obj:
             return True
-        try:
-            return getattr(self.api, name) is obj
-        except AttributeError:
-            return False
+        return _api_object(name) is obj
 
     def program_fn(self, obj: Any) -> types.CodeType | None:
         code = getattr(obj, "__code__", None)
@@ -318,16 +322,20 @@ def _decl_options(decl: PartDecl) -> str:
     return "options " + repr({k: v for k, v in opts.items() if k not in UNKEYED_OPTIONS})
 
 
-def _mate_rows(mates: list[dict[str, Any]]) -> dict[str, list[str]]:
+def _mate_rows(mates: list[dict[str, Any]], only: set[str] | None) -> dict[str, list[str]]:
     """Part name -> one row per mate that adds a feature to it, in declaration order."""
     rows: dict[str, list[str]] = {}
     for m in mates:
         d = m["decl"]
-        for role, frame in (("child", "fc"), ("parent", "fp")):
-            rows.setdefault(getattr(d, role), []).append(json.dumps({
-                "mate": d.name, "role": role, "type": m["type"].name, "d": m["d"],
-                "fit": m["fit"].as_dict(), "options": m["options"],
-                "frame": np.round(m[frame], 12).tolist()}, sort_keys=True, default=str))
+        ends = [(r, f) for r, f in (("child", "fc"), ("parent", "fp"))
+                if only is None or getattr(d, r) in only]
+        if not ends:
+            continue
+        common = repr((d.name, m["type"].name, m["d"], sorted(m["fit"].as_dict().items()),
+                       sorted(m["options"].items())))
+        for role, frame in ends:
+            rows.setdefault(getattr(d, role), []).append(
+                f"mate {role} {common} {np.round(m[frame], 12).tolist()!r}")
     return rows
 
 
@@ -350,7 +358,7 @@ def part_keys(source: str, reg: Registry, params: dict[str, Any], mates: list[di
     if scan.opaque or shadowed:
         whole = ["module:\n" + "\n".join(ln for i, ln in enumerate(keyer.lines, 1)
                                          if i not in scan.doc)]
-    rows = _mate_rows(mates)
+    rows = _mate_rows(mates, only)
     keys: dict[str, str] = {}
     for name, decl in reg.parts.items():
         if only is not None and name not in only:

@@ -192,7 +192,8 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     # state a part read that its key does not cover (a part that mutated a module-level list
     # or dict another part reads): those keys are dropped, so nothing stale is cached. Only a
     # key that hashed such a value can change (programs cannot rebind module names).
-    after = keys.part_keys(source, reg, params, mates, glb, scan=scan, only=volatile)
+    after = keys.part_keys(source, reg, params, mates, glb, scan=scan, only=volatile) \
+        if volatile else {}
     part_keys = {n: k for n, k in part_keys.items()
                  if k and (n not in volatile or after.get(n) == k)}
     b.timings["cache_hits"] = float(len(hits))
