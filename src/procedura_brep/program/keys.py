@@ -3,7 +3,8 @@
 A part's key (:func:`part_keys`) hashes:
 
 * the engine (:func:`engine_digest`: the package, build123d and OCP versions and the source
-  of the feature macros and fits that turn a part into its final solid);
+  of every module of ``mates/``: the mate types, fits and feature macros that turn a part into
+  its final solid);
 * the part's own function: its ``def`` through its last line, its other decorators, its
   default arguments and closure cells, and the ``@part`` options that are not
   :data:`UNKEYED_OPTIONS`;
@@ -30,8 +31,9 @@ Where the key cannot see what a part may depend on, it is conservative, never st
   call, a ``with`` or ``try`` block, an item assignment, ``del``, ``from math import *`` ...)
   is listed by :func:`scan_module`; when there is any, every key also hashes the whole
   program text (outside the module docstring): any edit anywhere then rebuilds every part;
-* the compiler recomputes the keys after the parts ran and drops any that changed (a part that
-  changed a value another part reads).
+* a part can change a module-level list, dict or set in place (it cannot rebind a module
+  name: the policy forbids ``global``), so the compiler recomputes, after the parts ran, the
+  keys that hashed such a value (:func:`part_keys` ``volatile``) and stores none that changed.
 
 Keys are computed in the sandbox child, from the executed module's globals.
 """
