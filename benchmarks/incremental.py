@@ -1,14 +1,18 @@
-"""Incremental build benchmark (DESIGN.md section 10; issue 3 item 7).
+"""Incremental build benchmark (DESIGN.md section 10; issue 3 item 7, issue 12 item 3).
 
-Generates synthetic programs of 10, 40 and 160 parts (a tower of filleted, bored blocks, each
-seated on the one below by a peg_socket and turned 15 deg, so no two parts overlap), and
-measures in one warm worker:
+Generates synthetic programs of 10, 40 and 160 parts (``procedura_brep.testing.programs.tower``:
+filleted, bored blocks, each seated on the one below by a peg_socket and turned 15 deg, so no
+two parts overlap), and measures in one warm worker:
 
-  cold: compile + gates of the whole program with an empty part cache and empty gate caches;
-  add:  compile + gates after appending one more part to the already-built program.
+  cold:   compile + gates of the whole program with an empty part cache and empty gate caches;
+  add:    compile + gates after appending one more part to the already-built program;
+  splice: the staged agent's step: splice the five-block reply of part k+1 into the built
+          program of k parts (part cache and gate caches warm for those k), compile, gates;
+  cold+1: compile + gates of all k+1 parts from empty caches (what the splice is compared with).
 
-Prints both, their ratio per size, and t160/t40 for the cold builds. Targets: add/cold <= 0.15
-at 40 parts; t160/t40 <= 4.5. Run: ``python benchmarks/incremental.py [--repeat 3]``.
+Prints the figures and the ratios add/cold and splice/cold+1 per size, and t160/t40 for the
+cold builds. Targets: add/cold <= 0.15 at 40 parts; splice/cold+1 <= 0.10 at 40 parts;
+t160/t40 <= 4.5. Run: ``python benchmarks/incremental.py [--repeat 3] [--sizes 10,40,160]``.
 """
 
 from __future__ import annotations
@@ -18,38 +22,11 @@ import statistics
 import tempfile
 import time
 
-HEAD = '''"""Synthetic benchmark program with {n} parts (generated)."""
-from procedura_brep.program import *
-
-# === params ===
-block_w = 40.0  # mm
-block_h = 12.0  # mm
-peg_d = 8.0  # mm
-bore_d = 10.0  # mm
-
-# === helpers ===
-def block(k):
-    b = Box(block_w, block_w, block_h, align=(Align.CENTER, Align.CENTER, Align.MIN))
-    b = fillet(b.edges().filter_by(Axis.Z), radius=3)
-    return b - Pos(block_w / 4, 0, 0) * Cylinder(bore_d / 2 + 0.01 * (k % 5), block_h * 3)
-
-# === parts ===
-'''
-
 
 def program(n: int) -> str:
-    parts, frames, mates = [], [], []
-    for i in range(n):
-        parts.append(f'@part(detail="major", material="aluminium", description="block {i}")\n'
-                     f"def p{i}():\n    return block({i})\n")
-        # each block sits on the top face of the one before, turned 15 deg about Z
-        frames.append(f'frames("p{i}", foot=Location((0, 0, 0)), '
-                      f'top=Location((-8, 8, block_h), (0, 0, 15)))')
-        if i:
-            mates.append(f'mate("p{i}.foot", "p{i - 1}.top", "peg_socket", nominal="peg_d", '
-                         f'fit="clearance", depth=5)')
-    return (HEAD.format(n=n) + "\n".join(parts) + "\n# === frames ===\n" + "\n".join(frames)
-            + "\n\n# === assembly ===\n" + "\n".join(mates) + "\n")
+    """The synthetic tower of ``n`` blocks (``procedura_brep.testing.programs.tower``)."""
+    from procedura_brep.testing.programs import tower
+    return tower(n)
 
 
 def compile_and_gate(worker, src: str) -> float:
@@ -62,21 +39,53 @@ def compile_and_gate(worker, src: str) -> float:
     return time.perf_counter() - t
 
 
-def measure(n: int, repeat: int) -> tuple[float, float]:
+def splice_and_gate(worker, src: str, reply: str) -> float:
+    """Splice ``reply`` into ``src``, compile, gate (the new part's step in a staged build)."""
+    from procedura_brep.gates import check_model
+    from procedura_brep.program.sandbox import CompileOptions
+    from procedura_brep.program.splice import splice
+    t = time.perf_counter()
+    new = splice(src, reply).source
+    model = worker.compile(new, CompileOptions(name="bench"))
+    assert model.ok, model.findings[:3]
+    check_model(model, new, baseline=0)
+    return time.perf_counter() - t
+
+
+def measure(n: int, repeat: int) -> dict[str, float]:
+    """Median seconds of cold, add, splice and cold+1 at ``n`` parts."""
     from procedura_brep.gates import clear_caches
     from procedura_brep.program.sandbox import Worker
-    colds, adds = [], []
+    from procedura_brep.testing.programs import tower_reply
+    runs: dict[str, list[float]] = {"cold": [], "add": [], "splice": [], "cold1": []}
     for _ in range(repeat):
         with tempfile.TemporaryDirectory() as cache:
             w = Worker(cache_dir=cache)
             try:
                 w.compile(program(2))  # boot the worker (import cost is not the build's)
                 clear_caches()
-                colds.append(compile_and_gate(w, program(n)))
-                adds.append(compile_and_gate(w, program(n + 1)))
+                runs["cold"].append(compile_and_gate(w, program(n)))
+                runs["add"].append(compile_and_gate(w, program(n + 1)))
             finally:
                 w.close()
-    return statistics.median(colds), statistics.median(adds)
+        with tempfile.TemporaryDirectory() as cache:
+            w = Worker(cache_dir=cache)
+            try:
+                w.compile(program(2))
+                clear_caches()
+                runs["cold1"].append(compile_and_gate(w, program(n + 1)))
+            finally:
+                w.close()
+        with tempfile.TemporaryDirectory() as cache:
+            w = Worker(cache_dir=cache)
+            try:
+                w.compile(program(2))
+                clear_caches()
+                compile_and_gate(w, program(n))  # the k parts built: warm part and gate caches
+                runs["splice"].append(splice_and_gate(w, program(n), tower_reply(n)))
+            finally:
+                w.close()
+    return {k: statistics.median(v) for k, v in runs.items()}
 
 
 def main() -> None:
@@ -87,14 +96,21 @@ def main() -> None:
     sizes = [int(s) for s in args.sizes.split(",")]
     cold: dict[int, float] = {}
     ratio: dict[int, float] = {}
-    print(f"{'parts':>6} {'cold s':>9} {'add-one s':>10} {'ratio':>7}")
+    spliced: dict[int, float] = {}
+    print(f"{'parts':>6} {'cold s':>9} {'add-one s':>10} {'ratio':>7} {'cold k+1 s':>11} "
+          f"{'splice k+1 s':>13} {'ratio':>7}")
     for n in sizes:
-        c, a = measure(n, args.repeat)
-        cold[n], ratio[n] = c, a / c
-        print(f"{n:>6} {c:>9.2f} {a:>10.2f} {a / c:>7.3f}", flush=True)
+        t = measure(n, args.repeat)
+        cold[n], ratio[n], spliced[n] = t["cold"], t["add"] / t["cold"], t["splice"] / t["cold1"]
+        print(f"{n:>6} {t['cold']:>9.2f} {t['add']:>10.2f} {ratio[n]:>7.3f} {t['cold1']:>11.2f} "
+              f"{t['splice']:>13.3f} {spliced[n]:>7.3f}", flush=True)
+    for n in sizes:
+        print(f"splice part k+1 into k = {n} parts: ratio(splice/cold k+1) = {spliced[n]:.3f}"
+              + (" (target <= 0.10)" if n == 40 else ""))
+    if 40 in cold:
+        print(f"ratio(add/cold) at 40 parts = {ratio[40]:.3f} (target <= 0.15)")
     if 40 in cold and 160 in cold:
-        print(f"ratio(add/cold) at 40 parts = {ratio[40]:.3f} (target <= 0.15); "
-              f"t160/t40 = {cold[160] / cold[40]:.2f} (target <= 4.5)")
+        print(f"t160/t40 = {cold[160] / cold[40]:.2f} (target <= 4.5)")
 
 
 if __name__ == "__main__":

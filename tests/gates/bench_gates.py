@@ -9,12 +9,12 @@ import sys
 import time
 
 import numpy as np
-from conftest import cpart
 
 from procedura_brep.gates import check_model, clear_caches
 from procedura_brep.mates.fits import iso286
 from procedura_brep.mates.placement import trans
 from procedura_brep.program.model import CompiledMate, CompiledModel
+from procedura_brep.testing.models import cpart
 
 
 def grid_model(n: int) -> CompiledModel:

@@ -3,12 +3,12 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from conftest import cpart
 
 from procedura_brep.gates.connectivity import analyse, connectivity_gate
 from procedura_brep.gates.geometry import CONNECT_MM, part_geometry
 from procedura_brep.mates.placement import trans
 from procedura_brep.program.model import CompiledModel
+from procedura_brep.testing.models import cpart
 
 
 def _box(x, y, z):

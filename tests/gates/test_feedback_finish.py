@@ -1,12 +1,11 @@
 from __future__ import annotations
 
-from conftest import cpart
-
 from procedura_brep.gates.feedback import context, format_feedback, locate
 from procedura_brep.gates.finish import finish_gate
 from procedura_brep.gates.policy import decide
 from procedura_brep.mates.placement import trans
 from procedura_brep.program.model import CompiledModel, Finding
+from procedura_brep.testing.models import cpart
 
 SRC = """from procedura_brep.program import *
 wheel_d = 120.0  # mm

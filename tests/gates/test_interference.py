@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import cpart, peg_model
 
 from procedura_brep.config import TOL
 from procedura_brep.gates import check_model
@@ -12,6 +11,7 @@ from procedura_brep.gates.interference import interference_gate, scan
 from procedura_brep.mates.fits import iso286
 from procedura_brep.mates.placement import trans
 from procedura_brep.program.model import CompiledMate, CompiledModel
+from procedura_brep.testing.models import cpart, peg_model
 
 
 def _box(x, y, z, align=("MIN", "MIN", "MIN")):

@@ -2,10 +2,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import cpart
 
 from procedura_brep.config import TOL
 from procedura_brep.gates.mate_gate import mate_gate, penetration_limit
+from procedura_brep.testing.models import cpart
 
 
 def _run(model):

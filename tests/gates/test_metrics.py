@@ -3,12 +3,12 @@ from __future__ import annotations
 import json
 
 import pytest
-from conftest import cpart
 
 from procedura_brep.gates.check import check_model
 from procedura_brep.gates.metrics import mesh_metrics
 from procedura_brep.mates.placement import trans
 from procedura_brep.program.model import CompiledModel
+from procedura_brep.testing.models import cpart
 
 
 def _one(shape, name="box"):

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import cpart
 
 from procedura_brep.gates import check_model
 from procedura_brep.gates.mate_gate import mate_gate
@@ -12,6 +11,7 @@ from procedura_brep.gates.pieces import part_pieces, pieces_gate
 from procedura_brep.mates.fits import iso286
 from procedura_brep.mates.placement import trans
 from procedura_brep.program.model import CompiledMate, CompiledModel
+from procedura_brep.testing.models import cpart
 
 
 def _model(parts, mates=()):

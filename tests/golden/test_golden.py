@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from harness import GOLDEN_DIR, check, compare, dumps, summarize, updating
+from .harness import GOLDEN_DIR, check, compare, dumps, summarize, updating
 
 PROGRAMS = ("rover", "arm", "vise")
 #: Minimum requirements per program: parts, distinct static mate types, kinematic mate counts.
@@ -134,7 +134,7 @@ def test_edit(name, path, worker):
     if updating():
         path.write_text(dumps({"set": spec["set"], "expect": actual}), encoding="utf-8")
         return
-    from harness import unified_diff
+    from .harness import unified_diff
     diffs = compare(spec["expect"], actual)
     assert not diffs, ("\n".join(diffs[:40]) + "\n\n" + unified_diff(spec["expect"], actual, path.name))
     base = summarize(_compiled(name, worker))

@@ -9,12 +9,9 @@ import pytest
 from procedura_brep import kernel
 from procedura_brep.program.edit import set_params
 from procedura_brep.program.sandbox import CompileOptions, Worker
+from procedura_brep.testing.models import rebuilt
 
 LAMP = (Path(__file__).parent / "lamp.py").read_text()
-
-
-def rebuilt(model) -> set[str]:
-    return {k.split(":", 1)[1] for k in model.timings if k.startswith("part:")}
 
 
 def test_cache_hits_and_invalidation(tmp_path):

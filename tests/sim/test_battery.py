@@ -11,7 +11,7 @@ import pytest
 from procedura_brep.export.bundle import write_bundle
 from procedura_brep.sim import run_battery
 
-from articulation.models import compile_lamp, lamp_source
+from ..articulation.models import compile_lamp, lamp_source
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -14,7 +14,7 @@ from procedura_brep.export.bundle import write_bundle
 from procedura_brep.program.model import to_json
 from procedura_brep.sim import run_battery
 
-from sim.agreement import assert_joints_agree
+from .agreement import assert_joints_agree
 
 GOLDEN = Path(__file__).resolve().parents[2] / "golden"
 PROGRAMS = ("rover", "arm", "vise")

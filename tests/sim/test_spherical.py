@@ -12,8 +12,8 @@ from procedura_brep.mates.placement import rot_x, trans
 from procedura_brep.program.model import CompiledModel
 from procedura_brep.sim import run_battery
 
-from articulation.models import mate, part
-from sim.agreement import TOL_M, TOL_RAD, assert_joints_agree
+from ..articulation.models import mate, part
+from .agreement import TOL_M, TOL_RAD, assert_joints_agree
 
 CONE_DEG = 30.0
 ANCHOR_MM = np.array([10.0, -5.0, 35.0])

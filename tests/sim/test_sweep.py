@@ -71,7 +71,7 @@ FIN_ANGLES = (7.3, 21.9, -33.4, 48.1)
 
 @pytest.fixture(scope="module")
 def fins(worker):
-    from sim.fin import program as fin_program
+    from .fin import program as fin_program
     return {phi: _compile("fin", fin_program(phi), worker) for phi in (None, *FIN_ANGLES)}
 
 
@@ -179,7 +179,7 @@ def test_every_part_of_the_moved_link_meets_every_part_of_the_parent_link(worker
     """The blade's link has a second part (a tip weight) and the post's link a second part (a
     raised fin): the tip hits the fin, though neither is the joint's own child or parent part;
     without the tip the blade passes under the fin."""
-    from sim.fin import program as fin_program
+    from .fin import program as fin_program
     with_tip = _compile("fin", fin_program(21.9, fin_z=33.0, tip=True), worker)
     art = articulate(with_tip)
     assert art.part_link["tip"] == art.part_link["blade"] and art.part_link["fin"] == art.part_link["post"]

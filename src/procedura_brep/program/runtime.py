@@ -27,7 +27,7 @@ from ..errors import MateError, ProceduraError, ProgramFormatError
 from ..findings import failed
 from ..mates import check_options, get_type
 from ..mates import placement as pl
-from . import cache, caps, guards, policy, registry
+from . import cache, caps, guards, keys, policy, registry
 from .model import CompiledMate, CompiledModel, CompiledPart, Finding, cap_text
 from .sections import parse_sections
 
@@ -89,7 +89,7 @@ def _explain(exc: BaseException, decl: registry.PartDecl, params: dict[str, Any]
     """Why a part failed, in words: the exception, plus the params it reads that are <= 0
     when the CAD kernel refused a construction (the usual cause of a raw OCCT error)."""
     text = _exc_text(exc)
-    bad = [n for n in cache.params_read(decl.fn.__code__, glb, params)
+    bad = [n for n in keys.params_read(decl.fn.__code__, glb, params)
            if isinstance(params.get(n), (int, float)) and not isinstance(params.get(n), bool)
            and params[n] <= 0]
     occt = type(exc).__name__ in _OCCT_SIZE_ERRORS or type(exc).__module__.startswith("OCP")
@@ -177,8 +177,10 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     if failed(b.findings):
         return CompiledModel(name, params, [], [], b.findings, b.timings)
     mates = _resolve_mates(b, reg, params)
-    keys = cache.part_keys(source, sections, reg, params, mates, glb)
-    hits = _load_cached(b, keys, cache_dir)
+    scan = keys.scan_module(source)
+    volatile: set[str] = set()
+    part_keys = keys.part_keys(source, reg, params, mates, glb, scan=scan, volatile=volatile)
+    hits = _load_cached(b, part_keys, cache_dir)
     _eval_parts(b, reg, hits, params, glb)
     contextvars.Context().run(_apply_features, b, reg, mates, hits)
     _place(b, reg, mates)
@@ -187,12 +189,15 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     if changed:
         b.fail("policy", f"the program modified build123d's class-level table(s) "
                          f"{', '.join(changed[:5])}; programs may not change the kernel")
-    # state a part read that its key does not cover (a part that mutated a module-level value
-    # another part reads): those keys are dropped, so nothing stale is cached
-    after = cache.part_keys(source, sections, reg, params, mates, glb)
-    keys = {n: k for n, k in keys.items() if k and after.get(n) == k}
+    # state a part read that its key does not cover (a part that mutated a module-level list
+    # or dict another part reads): those keys are dropped, so nothing stale is cached. Only a
+    # key that hashed such a value can change (programs cannot rebind module names).
+    after = keys.part_keys(source, reg, params, mates, glb, scan=scan, only=volatile) \
+        if volatile else {}
+    part_keys = {n: k for n, k in part_keys.items()
+                 if k and (n not in volatile or after.get(n) == k)}
     b.timings["cache_hits"] = float(len(hits))
-    return _serialise(b, reg, params, mates, time.perf_counter() - t0, keys)
+    return _serialise(b, reg, params, mates, time.perf_counter() - t0, part_keys)
 
 
 def _exec_module(b: _Build, source: str, glb: dict[str, Any]) -> None:
