@@ -632,9 +632,10 @@ def bench(
                                                        "transcript).")] = None,
     judge_base_url: Annotated[Optional[str], typer.Option("--judge-base-url")] = None,
     jobs: Annotated[int, typer.Option("--jobs", "-j", min=1, max=64, help="Local processes.")] = 1,
-    ray: Annotated[Optional[str], typer.Option("--ray", is_flag=False, flag_value="local",
-                                               help="Run cases as Ray tasks: --ray alone on this machine, "
-                                                    "--ray ADDRESS on that cluster.")] = None,
+    ray: Annotated[bool, typer.Option("--ray", help="Run cases as Ray tasks (ray.init() on this "
+                                                    "machine, or --ray-address).")] = False,
+    ray_address: Annotated[Optional[str], typer.Option("--ray-address", help="Connect to this Ray cluster "
+                                                       "(auto, HOST:6379, ray://HOST:10001); implies --ray.")] = None,
     from_dir: Annotated[Optional[Path], typer.Option("--from", help="Rebuild the tables of this bench "
                                                      "directory without generating.")] = None,
     pair: Annotated[Optional[list[str]], typer.Option("--pair", help="A,B: compare A against B per case "
@@ -675,7 +676,7 @@ def bench(
                 variants=parse_variants(variants),
                 cases=tuple(c.strip() for c in cases.split(",") if c.strip()) if cases else None,
                 judge_model=judge_model, judge_base_url=judge_base_url, jobs=jobs,
-                ray=ray is not None, ray_address=None if ray in (None, "local") else ray,
+                ray=ray or ray_address is not None, ray_address=ray_address,
                 simulate=not no_simulate, formats=_formats(formats) or None, max_cost_usd=max_cost,
                 salt=salt, clip_weights=clip_weights, pairs=_pairs(pair))
             _output_dir(out)
