@@ -1,5 +1,6 @@
-"""What one case costs: wall time, CPU seconds and peak resident memory of the process tree
-(the bench process and its compile worker), sampled on a background thread."""
+"""What one case costs: wall time, CPU seconds and peak resident memory (PSS) of the process
+tree (the bench process, its compile worker and their children), sampled on a background
+thread."""
 
 from __future__ import annotations
 
@@ -34,10 +35,13 @@ def _cpu_s() -> float:
 
 
 def _rss() -> int:
+    """Resident memory of the tree: proportional set sizes (shared pages split between the
+    processes that share them, so a forked compile child is not counted twice), RSS where PSS
+    is not available."""
     total = 0
     for p in _tree():
         try:
-            total += p.memory_info().rss
+            total += getattr(p.memory_full_info(), "pss", None) or p.memory_info().rss
         except psutil.Error:
             continue
     return total
@@ -45,7 +49,8 @@ def _rss() -> int:
 
 @dataclass
 class Cost:
-    """Measured cost of a block: ``wall_s``, ``cpu_s`` and ``peak_rss_mb`` of the process tree.
+    """Measured cost of a block: ``wall_s``, ``cpu_s`` and ``peak_rss_mb`` (peak PSS, MiB) of
+    the process tree.
 
     CPU time of processes that started and ended inside the block is counted once they are
     reaped (the sandbox worker reaps its per-compile children), so it is a lower bound.
