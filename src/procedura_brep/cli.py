@@ -688,4 +688,10 @@ def bench(
         _err(str(exc))
         raise typer.Exit(EXIT_FAIL) from None
     typer.echo(res.tables["summary.md"].read_text(encoding="utf-8"), nl=False)
-    raise typer.Exit(EXIT_FAIL if res.judge_errors else EXIT_OK)
+    if res.run_errors:
+        first = res.run_errors[0]
+        _err(f"{len(res.run_errors)} run(s) ended in an error, scored as shipping nothing; run the same "
+             f"command again to retry them (first: {first['case']}/{first['variant']}: {first['error']})")
+    if res.judge_errors:
+        _err(f"{res.judge_errors} judge call(s) gave no usable score (see {res.out}/judge/scores.json)")
+    raise typer.Exit(EXIT_FAIL if res.judge_errors or res.run_errors else EXIT_OK)

@@ -111,3 +111,25 @@ def test_cli_bench_usage_errors_are_one_line(tmp_path):
     assert r.exit_code == 2 and "holds no bench" in r.output
     r = CliRunner().invoke(app, ["bench", "-m", "replay:x", "-o", str(tmp_path / "b"), "--pair", "full"])
     assert r.exit_code == 2 and "write two variant names" in r.output
+
+
+def test_a_run_that_errors_scores_zero_and_is_retried(tmp_path):
+    """A run whose tape is missing ends in an error: recorded, scored as shipping nothing, exit 1,
+    and not finished, so the next call tries it again."""
+    prompts = tmp_path / "p.toml"
+    prompts.write_text('[[case]]\nid = "ghost"\nprompt = "a thing nobody taped"\n')
+    tapes = tmp_path / "tapes"
+    tapes.mkdir()
+    (tapes / "judge.jsonl").write_text("")
+    args = ["bench", "--prompts", str(prompts), "-m", f"replay:{tapes}", "-o", str(tmp_path / "b"),
+            "--variants", "one-shot", "--no-simulate"]
+    for _ in range(2):
+        r = CliRunner().invoke(app, args)
+        assert r.exit_code == 1, r.output
+        assert "1 run(s) ended in an error" in r.output and "ghost/one-shot" in r.output
+        assert "0 finished already, 1 to run" in r.output
+    import json
+    rec = json.loads((tmp_path / "b/runs/ghost/one-shot/bench_run.json").read_text())
+    assert rec["status"] == "error" and "does not exist" in rec["error"]
+    summary = json.loads((tmp_path / "b/tables/summary.json").read_text())["summary"][0]
+    assert (summary["shipped"], summary["overall"], summary["clip"]) == (0, 0.0, None)

@@ -68,6 +68,11 @@ class BenchResult:
     records: list[dict[str, Any]] = field(default_factory=list)
     judge_errors: int = 0
 
+    @property
+    def run_errors(self) -> list[dict[str, Any]]:
+        """Records of runs that ended in an error (retried by the next call)."""
+        return [r for r in self.records if r.get("status") == "error"]
+
 
 def _meta_path(out: Path) -> Path:
     return Path(out) / "bench.json"
@@ -126,6 +131,9 @@ def run_bench(out: Path, opts: BenchOptions, *, say: Say | None = None) -> Bench
     pset = load_cases(opts.prompts)
     cases = _select(pset, opts.cases)
     clip = clip_setting(opts.clip_weights)  # a bad setting fails before any run
+    from .runner import case_model
+    if case_model(opts.model, "-", "-") == opts.model:  # one model for every run: check it once
+        preflight(opts.model, base_url=opts.base_url)
     meta = _protocol(out, pset, cases, opts)
     tasks = [{"case": c.id, "variant": v, "prompt": c.prompt, "cpus": c.cpus, "out": str(Path(out).resolve()),
               "model": opts.model, "base_url": opts.base_url, "simulate": opts.simulate,
