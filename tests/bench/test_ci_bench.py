@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from procedura_brep.bench import BenchOptions, rebuild, run_bench
+from procedura_brep.bench import BenchOptions, run_bench
 from procedura_brep.bench.rows import TIMING_COLUMNS
 from procedura_brep.cli import app
 

@@ -20,7 +20,7 @@ from typing import Any
 
 from ..llm import Client, Ledger, LLMError, Transcript, preflight
 from ..paths import write_atomic
-from .cases import VARIANTS, BenchError, Case, PromptSet, load_cases
+from .cases import BenchError, Case, PromptSet, load_cases
 from .clip import ClipScorer, clip_setting
 from .judge import Item, item_id, judge_items
 from .paired import paired_table, pairs_of
