@@ -620,3 +620,97 @@ def main() -> None:
 
 if __name__ == "__main__":
     main()
+
+
+def _pairs(values: list[str] | None) -> tuple[tuple[str, str], ...] | None:
+    """``--pair full,one-shot`` (repeatable) -> pairs; one-line error otherwise."""
+    out = []
+    for v in values or []:
+        a, sep, b = v.partition(",")
+        if not sep or not a.strip() or not b.strip() or "," in b:
+            _err(f"--pair {v!r}: write two variant names, A,B (e.g. --pair full,one-shot)")
+            raise typer.Exit(EXIT_USAGE)
+        out.append((a.strip(), b.strip()))
+    return tuple(out) or None
+
+
+@app.command()
+@guarded
+def bench(
+    out: Annotated[Optional[Path], typer.Option("-o", "--out", help="The bench directory.")] = None,
+    prompts: Annotated[Optional[Path], typer.Option("--prompts", help="A prompts TOML file (default: "
+                                                    "the bundled MechBench-36 (reconstructed)).")] = None,
+    model: Annotated[Optional[str], typer.Option("--model", "-m", help="provider:model that generates; "
+                                                 "replay:DIR plays DIR/<case>/<variant>.jsonl.")] = None,
+    base_url: Annotated[Optional[str], typer.Option("--base-url", help="OpenAI-compatible server URL.")] = None,
+    variants: Annotated[str, typer.Option(help="Comma list of full, one-shot, no-refine, no-plan, "
+                                               "no-review, no-feedback.")] = "full,one-shot",
+    cases: Annotated[Optional[str], typer.Option("--cases", help="Comma list of case ids (default: all).")] = None,
+    judge_model: Annotated[Optional[str], typer.Option("--judge-model", help="Vision model that judges "
+                                                       "(default: --model; with --from: replay DIR's judge "
+                                                       "transcript).")] = None,
+    judge_base_url: Annotated[Optional[str], typer.Option("--judge-base-url")] = None,
+    jobs: Annotated[int, typer.Option("--jobs", "-j", min=1, max=64, help="Local processes.")] = 1,
+    ray: Annotated[bool, typer.Option("--ray", help="Run cases as Ray tasks (ray.init() on this "
+                                                    "machine, or --ray-address).")] = False,
+    ray_address: Annotated[Optional[str], typer.Option("--ray-address", help="Connect to this Ray cluster "
+                                                       "(auto, HOST:6379, ray://HOST:10001); implies --ray.")] = None,
+    from_dir: Annotated[Optional[Path], typer.Option("--from", help="Rebuild the tables of this bench "
+                                                     "directory without generating.")] = None,
+    pair: Annotated[Optional[list[str]], typer.Option("--pair", help="A,B: compare A against B per case "
+                                                      "(repeatable; default: each variant against the first).")] = None,
+    clip_weights: Annotated[Optional[str], typer.Option("--clip-weights", help="[ARCH@]PATH of local CLIP "
+                                                        "weights (default $PROCEDURA_BREP_CLIP_WEIGHTS; "
+                                                        "none: CLIP not computed).")] = None,
+    salt: Annotated[Optional[str], typer.Option("--salt", help="Salt of the opaque judge ids (default: "
+                                                "the directory's, else random).")] = None,
+    max_cost: Annotated[Optional[float], typer.Option("--max-cost", help="USD limit per run.")] = None,
+    formats: Annotated[Optional[str], typer.Option(help="Exports per run (default: all).")] = None,
+    no_simulate: Annotated[bool, typer.Option("--no-simulate", help="Skip the MuJoCo battery.")] = False,
+    quiet: QuietOption = False,
+) -> None:
+    """Run a benchmark: generate every case x variant (resumable), judge blind, write tables."""
+    from .bench import BenchOptions, rebuild, run_bench
+    from .bench.cases import BenchError, parse_variants
+    from .llm import ConfigError, LLMError
+    from .llm.settings import resolve_model
+    say = (lambda line: None) if quiet else (lambda line: typer.echo(line, err=True))
+    try:
+        if from_dir is not None:
+            if out is not None and out.resolve() != from_dir.resolve():
+                _err(f"--from {from_dir} rebuilds in place; drop -o {out}")
+                raise typer.Exit(EXIT_USAGE)
+            res = rebuild(from_dir, judge_model=judge_model, base_url=judge_base_url,
+                          clip_weights=clip_weights, pairs=_pairs(pair), say=say)
+        else:
+            setting = resolve_model(model, base_url)
+            if setting.model is None:
+                _err("no model: pass --model PROVIDER:MODEL (or replay:DIR), or set PROCEDURA_BREP_MODEL")
+                raise typer.Exit(EXIT_USAGE)
+            if out is None:
+                _err("say where the bench goes: -o DIR (or --from DIR to rebuild its tables)")
+                raise typer.Exit(EXIT_USAGE)
+            opts = BenchOptions(
+                model=setting.model, base_url=setting.base_url, prompts=prompts,
+                variants=parse_variants(variants),
+                cases=tuple(c.strip() for c in cases.split(",") if c.strip()) if cases else None,
+                judge_model=judge_model, judge_base_url=judge_base_url, jobs=jobs,
+                ray=ray or ray_address is not None, ray_address=ray_address,
+                simulate=not no_simulate, formats=_formats(formats) or None, max_cost_usd=max_cost,
+                salt=salt, clip_weights=clip_weights, pairs=_pairs(pair))
+            _output_dir(out)
+            res = run_bench(out, opts, say=say)
+    except (BenchError, ConfigError) as exc:
+        _err(str(exc))
+        raise typer.Exit(EXIT_USAGE) from None
+    except LLMError as exc:
+        _err(str(exc))
+        raise typer.Exit(EXIT_FAIL) from None
+    typer.echo(res.tables["summary.md"].read_text(encoding="utf-8"), nl=False)
+    if res.run_errors:
+        first = res.run_errors[0]
+        _err(f"{len(res.run_errors)} run(s) ended in an error, scored as shipping nothing; run the same "
+             f"command again to retry them (first: {first['case']}/{first['variant']}: {first['error']})")
+    if res.judge_errors:
+        _err(f"{res.judge_errors} judge call(s) gave no usable score (see {res.out}/judge/scores.json)")
+    raise typer.Exit(EXIT_FAIL if res.judge_errors or res.run_errors else EXIT_OK)
