@@ -130,7 +130,8 @@ class Worker:
         """Start the worker process (idempotent); returns immediately, ready on first use."""
         if self._proc is None or self._proc.poll() is not None:
             self._proc = subprocess.Popen(
-                [sys.executable, "-m", "procedura_brep.program.worker"], stdin=subprocess.PIPE,
+                # -P: the start folder (the temp dir) is not on the import path
+                [sys.executable, "-P", "-m", "procedura_brep.program.worker"], stdin=subprocess.PIPE,
                 stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=clean_env(),
                 cwd=tempfile.gettempdir())
             self._ready = False
