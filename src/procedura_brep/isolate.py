@@ -29,6 +29,8 @@ from .config import PARENT, ParentLimits
 from .paths import json_default
 
 Send = Callable[[dict[str, Any]], None]
+#: Exception types (by name) that mean "out of memory" from native code under RLIMIT_AS.
+OUT_OF_MEMORY = ("Standard_OutOfMemory", "bad_alloc")
 
 
 class ChildFailure(Exception):
@@ -90,6 +92,8 @@ def _child(fn: Callable[[Send], dict[str, Any]], w: int, r: int, lim: ParentLimi
             out = {"failure": {"kind": "error", "type": type(exc).__name__, "message": str(exc),
                                "oserror": isinstance(exc, OSError),
                                "procedura": isinstance(exc, ProceduraError)}}
+            if type(exc).__name__ in OUT_OF_MEMORY:  # OCCT's own, under the same limit
+                out = {"failure": {"kind": "memory", "message": "ran out of memory"}}
         _write(w, out)
     except MemoryError:
         code = 3

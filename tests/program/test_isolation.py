@@ -224,3 +224,9 @@ def test_probe_says_which_layers_apply():
     assert not set(res.applied) & set(res.missing)
     assert ("landlock" in res.applied) == LANDLOCK and ("own_uid" in res.applied) == ROOT
     assert res.line().startswith("applied: ")
+
+
+def test_doctor_names_the_layers():
+    from procedura_brep.doctor import _isolation
+    res, check = isolation.probe(), _isolation()
+    assert check.detail == res.line() and check.ok == (not res.missing) and check.optional

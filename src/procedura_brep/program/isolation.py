@@ -24,7 +24,7 @@ Layers (:data:`LAYERS`):
 The privilege drop (a distinct unprivileged uid per compile when the worker runs as root) is
 in :mod:`procedura_brep.program.worker`. A mount namespace is not used: Landlock already
 confines every open to the folders above without root or user namespaces, and it forbids
-mounts, so a private mount tree would add nothing (docs/security.md).
+mounts, so a private mount tree would add nothing (docs/program-format.md, Security).
 """
 
 from __future__ import annotations
