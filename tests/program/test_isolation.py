@@ -230,3 +230,13 @@ def test_doctor_names_the_layers():
     from procedura_brep.doctor import _isolation
     res, check = isolation.probe(), _isolation()
     assert check.detail == res.line() and check.ok == (not res.missing) and check.optional
+
+
+def test_the_worker_records_the_layers_of_its_last_child():
+    from procedura_brep.program.sandbox import CompileOptions, Worker
+    w = Worker()
+    try:
+        model = w.compile(LAMP, CompileOptions(name="lamp", cache=False))
+    finally:
+        w.close()
+    assert model.ok and w.isolation == isolation.probe().line()
