@@ -39,10 +39,10 @@ class StageError(ProceduraError):
         super().__init__(message)
 
 
-def _raise(exc: ChildFailure, out: Path | None) -> NoReturn:
+def _raise(exc: ChildFailure, out: Path | None, command: str) -> NoReturn:
     """Turn a child failure into the exception the CLI maps to the right exit code."""
     if exc.kind != "error":
-        raise StageError(str(exc), kind=exc.kind, stage=exc.stage) from None
+        raise StageError(f"{command} failed: {exc}", kind=exc.kind, stage=exc.stage) from None
     if exc.exc_type == "KeyboardInterrupt":
         raise KeyboardInterrupt from None
     msg = str(exc)
@@ -55,8 +55,8 @@ def _raise(exc: ChildFailure, out: Path | None) -> NoReturn:
     raise RuntimeError(f"{exc.exc_type} in the {exc.stage} stage: {msg}") from None
 
 
-def _limited(fn: Callable[[Send], dict[str, Any]], *, stage: str, progress: Progress | None,
-             out: Path | None = None) -> dict[str, Any]:
+def _limited(fn: Callable[[Send], dict[str, Any]], *, command: str, stage: str,
+             progress: Progress | None, out: Path | None = None) -> dict[str, Any]:
     def relay(msg: dict[str, Any]) -> None:
         if progress is not None and "line" in msg:
             progress(str(msg["line"]))
@@ -64,7 +64,7 @@ def _limited(fn: Callable[[Send], dict[str, Any]], *, stage: str, progress: Prog
     try:
         return run_limited(fn, stage=stage, on_message=relay)
     except ChildFailure as exc:
-        _raise(exc, out)
+        _raise(exc, out, command)
 
 
 def check(model: CompiledModel, source: str, *, progress: Progress | None = None) -> dict[str, Any]:
@@ -79,7 +79,7 @@ def check(model: CompiledModel, source: str, *, progress: Progress | None = None
 
     if progress is not None:
         progress("running the gates")
-    return _limited(heavy, stage="gates", progress=progress)
+    return _limited(heavy, command="check", stage="gates", progress=progress)
 
 
 def export(model: CompiledModel, out: Path, *, formats: tuple[str, ...], step_schema: str,
@@ -101,7 +101,7 @@ def export(model: CompiledModel, out: Path, *, formats: tuple[str, ...], step_sc
 
     if progress is not None:
         progress(f"writing {len(model.parts)} parts as {', '.join(formats)}")
-    return list(_limited(heavy, stage="export", progress=progress, out=out)["files"])
+    return list(_limited(heavy, command="export", stage="export", progress=progress, out=out)["files"])
 
 
 def _gl_in_use() -> bool:
@@ -131,7 +131,7 @@ def render(model: CompiledModel, out: Path, *, progress: Progress | None = None,
         progress("rendering")
     if _gl_in_use():  # pragma: no cover - library callers only; the CLI never draws before
         return {**heavy(lambda msg: None), "isolated": False}
-    return {**_limited(heavy, stage="render", progress=progress, out=out), "isolated": True}
+    return {**_limited(heavy, command="render", stage="render", progress=progress, out=out), "isolated": True}
 
 
 def simulate(model: CompiledModel, target: Path, *, out: Path | None,
@@ -153,7 +153,7 @@ def simulate(model: CompiledModel, target: Path, *, out: Path | None,
 
     if progress is not None:
         progress("running the MuJoCo battery")
-    return _limited(heavy, stage="battery", progress=progress, out=out)
+    return _limited(heavy, command="simulate", stage="battery", progress=progress, out=out)
 
 
 __all__ = ["StageError", "check", "export", "render", "simulate"]
