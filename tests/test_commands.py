@@ -111,3 +111,12 @@ def test_hostile_programs_end_clean_in_every_command(cmd, case, tmp_path):
     assert "does not compile" in errors[0] and needle in errors[0], errors[0][:300]
     assert len(errors[0]) <= 4000
     assert seconds < 60, seconds
+
+
+def test_an_error_the_child_raises_on_purpose_keeps_its_exit_code(tmp_path):
+    """An unknown close-up name is found in the render child: still a usage error (exit 2)."""
+    res = runner.invoke(app, ["render", str(LAMP), "-o", str(tmp_path / "r"), "--views", "iso_ne",
+                              "--size", "64", "--close-up", "nosuch", "-q"])
+    assert "Traceback" not in res.output
+    errors = [ln for ln in res.stderr.splitlines() if not ln.startswith("Fontconfig")]
+    assert res.exit_code == 2 and len(errors) == 1 and "nosuch" in errors[0], (res.exit_code, errors)
