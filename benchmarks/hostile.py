@@ -114,7 +114,7 @@ def run(kind: str, source: str, extra: list[str], timeout: float) -> tuple[float
         dt = time.perf_counter() - t
         err = proc.stderr.strip().splitlines()
         err = [ln for ln in err if not ln.startswith("Fontconfig")]
-        first = err[0] if err else proc.stdout.strip()[:200]
+        first = err[0] if err else (proc.stdout.strip().splitlines() or [""])[0][:200]
         clean = (proc.returncode in (0, 1, 2) and len(err) <= 1 and "Traceback" not in proc.stderr
                  and all(len(ln) <= 4000 for ln in (proc.stdout + proc.stderr).splitlines()))
         return dt, proc.returncode, first, clean
