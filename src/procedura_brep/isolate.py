@@ -34,6 +34,7 @@ from .paths import json_default
 Send = Callable[[dict[str, Any]], None]
 #: Exception types (by name) that mean "out of memory" from native code under RLIMIT_AS.
 OUT_OF_MEMORY = ("Standard_OutOfMemory", "bad_alloc")
+PR_SET_PDEATHSIG = 1
 
 
 class ChildFailure(Exception):
@@ -58,8 +59,10 @@ def run_limited(fn: Callable[[Send], dict[str, Any]], *, stage: str,
     """
     lim = limits or PARENT
     r, w = os.pipe()
+    parent = os.getpid()
     pid = os.fork()
     if pid == 0:  # child: never returns
+        _die_with(parent)
         _child(fn, w, r, lim)
     os.close(w)
     current = {"stage": stage}
@@ -72,6 +75,19 @@ def run_limited(fn: Callable[[Send], dict[str, Any]], *, stage: str,
         finally:
             os.close(r)
     return result
+
+
+def _die_with(parent: int) -> None:
+    """SIGKILL this child when the process that forked it dies (a killed CLI must not leave
+    its limited child running, since the parent is what enforces the wall-clock limit)."""
+    try:
+        import ctypes
+        libc = ctypes.CDLL("libc.so.6", use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    except (OSError, AttributeError):  # pragma: no cover - not Linux
+        return
+    if os.getppid() != parent:  # it died before the prctl
+        os._exit(3)
 
 
 def _child(fn: Callable[[Send], dict[str, Any]], w: int, r: int, lim: ParentLimits) -> None:
