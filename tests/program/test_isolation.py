@@ -1,11 +1,11 @@
 """The OS layers of a compile child, each tested by its own hostile program.
 
-The policy stops these programs long before they run, so :func:`escaped` plays a program that
-got past it: in a forked child it switches the AST policy off, gives the program ``open`` and
-``os`` / ``socket`` / ``threading``, and runs the worker's real compile child
-(``worker._child``: limits, scratch dir, isolation layers, uid drop). What the program then
-tries must end as a clean finding (``part-exception`` naming the OS error) read back by the
-parent's validating reader, never a file written, read or a process started.
+The policy stops these programs long before they run, so :class:`EscapedWorker` plays a
+program that got past it: a real compile worker (zygote, limits, scratch dir, isolation
+layers, uid drop, the parent's validating reader) whose AST policy is off, with ``open``
+among the builtins and ``os`` / ``socket`` / ``threading`` importable. What the program then
+tries must end as a clean finding (``part-exception`` naming the OS error), never a file
+written, read or a process started.
 """
 
 from __future__ import annotations
@@ -15,6 +15,8 @@ import os
 import platform
 import shutil
 import socket
+import subprocess
+import sys
 import tempfile
 from dataclasses import asdict
 from pathlib import Path
@@ -24,6 +26,7 @@ import pytest
 from procedura_brep.config import SANDBOX
 from procedura_brep.errors import CompileError
 from procedura_brep.program import isolation, worker
+from procedura_brep.program.sandbox import CompileOptions, Worker, clean_env
 
 pytestmark = pytest.mark.skipif(platform.system() != "Linux", reason="Linux isolation layers")
 ROOT = os.geteuid() == 0
@@ -36,36 +39,50 @@ def in_arm(body: str) -> str:
     return LAMP.replace("def arm():\n", "def arm():\n" + "".join(f"    {ln}\n" for ln in body.splitlines()))
 
 
-def escaped(tmp_path: Path, body: str, *, cache_dir: str | None = None) -> tuple[list, list[str]]:
-    """Compile the lamp whose arm runs ``body`` with the policy off, in a real compile child.
+#: A compile worker whose children run programs that got past the Python layers: the AST
+#: policy off, ``open`` among the builtins, ``os``, ``socket``, ``threading``, ``ctypes``
+#: importable. Everything else (the zygote, the limits, the OS layers, the reader of the
+#: child's result) is the real one.
+ESCAPED_WORKER = """
+from procedura_brep.program import policy, runtime
+policy.check = lambda *a, **k: None
+policy.ALLOWED_IMPORTS |= {"os", "socket", "threading", "ctypes"}
+runtime.SAFE_BUILTINS += ("open",)
+from procedura_brep.program.worker import main
+main()
+"""
 
-    Returns ``(error findings, layers applied)``.
-    """
-    from procedura_brep.program import guards, policy, runtime
-    from procedura_brep.program.sandbox import _result
-    scratch = tmp_path / "scratch"
-    scratch.mkdir(mode=0o700)
-    req = {"id": 1, "source": in_arm(body), "name": "lamp", "scratch": str(scratch),
-           "limits": asdict(SANDBOX), "cache_dir": cache_dir}
-    pid = os.fork()
-    if pid == 0:
-        try:
-            guards.harden_kernel()
-            guards.baseline()
-            policy.check = lambda *a, **k: None  # the escape: no AST policy, more builtins
-            policy.ALLOWED_IMPORTS |= {"os", "socket", "threading", "ctypes"}
-            runtime.SAFE_BUILTINS += ("open",)
-            worker._child(req)
-        finally:
-            os._exit(0)
-    os.waitpid(pid, 0)
-    log = (scratch / "child.log").read_text()
-    layers = next(ln for ln in log.splitlines() if ln.startswith("isolation:")).split()[1:]
+
+class EscapedWorker(Worker):
+    """:class:`Worker` running :data:`ESCAPED_WORKER` (a fresh process, like the real zygote:
+    forking the test process itself can deadlock on a lock one of its threads held)."""
+
+    def start(self) -> "EscapedWorker":
+        if self._proc is None or self._proc.poll() is not None:
+            self._proc = subprocess.Popen(
+                [sys.executable, "-P", "-c", ESCAPED_WORKER], stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=clean_env(),
+                cwd=tempfile.gettempdir())
+            self._ready = False
+        return self
+
+
+@pytest.fixture(scope="module")
+def escaped_worker():
+    w = EscapedWorker()
+    yield w
+    w.close()
+
+
+def escaped(w: EscapedWorker, body: str, *, cache: bool = False) -> tuple[list, list[str]]:
+    """Compile the lamp whose arm runs ``body`` in ``w``; returns ``(error findings, layers
+    applied)``."""
     try:
-        model = _result({"status": "exit", "detail": "0"}, str(scratch), SANDBOX, name="lamp")
+        model = w.compile(in_arm(body), CompileOptions(name="lamp", cache=cache))
         errors = [f for f in model.findings if f.severity == "error"]
     except CompileError as exc:
         errors = exc.findings
+    layers = w.isolation.split(";")[0].removeprefix("applied:").split()
     return errors, layers
 
 
@@ -95,28 +112,28 @@ def outside():
     shutil.rmtree(d, ignore_errors=True)
 
 
-def test_a_clean_program_compiles_under_every_layer(tmp_path):
+def test_a_clean_program_compiles_under_every_layer(escaped_worker):
     """The control: threads still start (``clone3`` -> ENOSYS, libc falls back to ``clone``
     with CLONE_THREAD), and the lamp compiles with every layer applied."""
     body = "import threading\nt = threading.Thread(target=math.sqrt, args=(4.0,))\nt.start()\nt.join()"
-    errors, layers = escaped(tmp_path, body)
+    errors, layers = escaped(escaped_worker, body)
     assert errors == []
     assert {"no_new_privs", "seccomp"} <= set(layers)
     assert ("landlock" in layers) == LANDLOCK and ("own_uid" in layers) == ROOT
 
 
 @pytest.mark.skipif(not LANDLOCK, reason="this kernel has no Landlock")
-def test_landlock_refuses_a_write_outside_the_scratch_dir(tmp_path, outside):
-    errors, _ = escaped(tmp_path, f"open({str(outside / 'escape.txt')!r}, 'w').write('x')")
+def test_landlock_refuses_a_write_outside_the_scratch_dir(escaped_worker, outside):
+    errors, _ = escaped(escaped_worker, f"open({str(outside / 'escape.txt')!r}, 'w').write('x')")
     _one_arm_error(errors, "PermissionError", "Permission denied")
     assert not (outside / "escape.txt").exists()
 
 
 @pytest.mark.skipif(not LANDLOCK, reason="this kernel has no Landlock")
-def test_landlock_refuses_a_write_in_tmp(tmp_path):
+def test_landlock_refuses_a_write_in_tmp(escaped_worker):
     target = f"/tmp/procedura-escape-{os.getpid()}.txt"
     try:
-        errors, _ = escaped(tmp_path, f"open({target!r}, 'w').write('x')")
+        errors, _ = escaped(escaped_worker, f"open({target!r}, 'w').write('x')")
         _one_arm_error(errors, "PermissionError")
         assert not os.path.exists(target)
     finally:
@@ -125,17 +142,15 @@ def test_landlock_refuses_a_write_in_tmp(tmp_path):
 
 
 @pytest.mark.skipif(not LANDLOCK, reason="this kernel has no Landlock")
-def test_landlock_refuses_a_read_outside_the_library_folders(tmp_path, outside):
-    for i, path in enumerate((outside / "readable.txt", "/etc/hostname")):
-        sub = tmp_path / str(i)
-        sub.mkdir()
-        errors, _ = escaped(sub, f"open({str(path)!r}).read()")
+def test_landlock_refuses_a_read_outside_the_library_folders(escaped_worker, outside):
+    for path in (outside / "readable.txt", "/etc/hostname"):
+        errors, _ = escaped(escaped_worker, f"open({str(path)!r}).read()")
         _one_arm_error(errors, "PermissionError")
 
 
-def test_seccomp_refuses_a_fork(tmp_path):
+def test_seccomp_refuses_a_fork(escaped_worker):
     body = "import os\npid = os.fork()\nif pid == 0:\n    os._exit(0)"
-    errors, _ = escaped(tmp_path, body)
+    errors, _ = escaped(escaped_worker, body)
     _one_arm_error(errors, "PermissionError", "Operation not permitted")
 
 
@@ -146,36 +161,33 @@ if libc.unshare(0x10000000) != 0:
     raise ValueError(f"unshare: {os.strerror(ctypes.get_errno())}")"""
 
 
-def test_seccomp_refuses_sockets_exec_and_namespaces(tmp_path):
-    for i, body in enumerate(("import socket\nsocket.socket()",
-                              "import os\nos.execv('/bin/true', ['true'])",
-                              UNSHARE)):
-        sub = tmp_path / str(i)
-        sub.mkdir()
-        errors, _ = escaped(sub, body)
+def test_seccomp_refuses_sockets_exec_and_namespaces(escaped_worker):
+    for body in ("import socket\nsocket.socket()", "import os\nos.execv('/bin/true', ['true'])",
+                 UNSHARE):
+        errors, _ = escaped(escaped_worker, body)
         _one_arm_error(errors, "Operation not permitted")
 
 
-def test_private_network_namespace(tmp_path):
+def test_private_network_namespace(escaped_worker):
     parent_net = os.readlink("/proc/self/ns/net")
     body = f"if os.readlink('/proc/self/ns/net') == {parent_net!r}:\n    raise ValueError('shared netns')"
-    errors, layers = escaped(tmp_path, "import os\n" + body)
+    errors, layers = escaped(escaped_worker, "import os\n" + body)
     if not ROOT and "netns" not in layers:
         pytest.skip("this kernel refuses unprivileged user namespaces")
     assert "netns" in layers and errors == []
 
 
 @pytest.mark.skipif(not ROOT, reason="the uid switch applies when the worker runs as root")
-def test_own_uid_refuses_a_root_only_file_in_a_readable_folder(tmp_path):
+def test_own_uid_refuses_a_root_only_file_in_a_readable_folder(escaped_worker):
     """The secret lies in the part cache, which Landlock lets the child read: only the uid
     switch keeps it out."""
-    cache = tmp_path / "cache"
-    cache.mkdir(mode=0o755)
+    escaped_worker.start()._ensure_ready()  # makes the cache folder (0o755)
+    cache = Path(escaped_worker.cache_dir)
     (cache / "secret").write_text("root only")
     (cache / "secret").chmod(0o600)
     body = (f"if os.getuid() == 0:\n    raise ValueError('still root')\n"
             f"open({str(cache / 'secret')!r}).read()")
-    errors, layers = escaped(tmp_path, "import os\n" + body, cache_dir=str(cache))
+    errors, layers = escaped(escaped_worker, "import os\n" + body, cache=True)
     assert "own_uid" in layers
     _one_arm_error(errors, "PermissionError")
 
