@@ -1,7 +1,9 @@
 """Hostile-program benchmark (issue 10.1): the time each case takes to a clean end through the
 real CLI, and whether it ended clean.
 
-Each case runs ``procedura-brep build`` (or ``edit``) in a subprocess with a timeout. "Clean"
+Each case runs ``procedura-brep build`` (or ``edit``) in a subprocess with a timeout, and then
+``check``, ``render``, ``export`` and ``simulate`` of the same program (one row each; their
+meshing, gates, exports, renders and battery run in the limited child too). "Clean"
 means: the process exited by itself with 0, 1 or 2 (never 3, a signal or the timeout), stderr
 is one line without a traceback, and no output line is longer than 4000 characters. The
 target is a clean error well under 30 s for every case the size caps refuse; cases the caps
@@ -10,7 +12,8 @@ accept (``Sphere(3000)``, the crossed plates) are timed and shown with their exi
 A second figure ("warm s") is the compile alone in an already warm worker (the sandbox child's
 share, without the CLI's start-up, meshing and gates).
 
-Run: ``python benchmarks/hostile.py [--timeout 120] [--only sphere_1e5,edit_4mb_comment] [--no-warm]``.
+Run: ``python benchmarks/hostile.py [--timeout 120] [--only sphere_1e5,edit_4mb_comment]
+[--commands build,check,render,export,simulate] [--no-warm]``.
 """
 
 from __future__ import annotations
@@ -86,13 +89,23 @@ def cases() -> list[tuple[str, str, str, list[str]]]:
     ]
 
 
+#: The commands a program-kind case runs, with their extra arguments (OUT: the output folder).
+COMMANDS = {
+    "build": ["-o", "OUT", "--formats", "step"],
+    "check": [],
+    "render": ["-o", "OUT", "--views", "iso_ne", "--size", "128"],
+    "export": ["-o", "OUT", "--formats", "step"],
+    "simulate": [],
+}
+
+
 def run(kind: str, source: str, extra: list[str], timeout: float) -> tuple[float, int | None, str, bool]:
     """(seconds, exit code or None on timeout, first stderr line, clean?)."""
     with tempfile.TemporaryDirectory() as tmp:
         prog = Path(tmp) / "hostile.py"
         prog.write_text(source)
         cmd = [sys.executable, "-m", "procedura_brep.cli", kind, str(prog), "-q"]  # no progress lines
-        cmd += ["-o", str(Path(tmp) / "out"), "--formats", "step"] if kind == "build" else extra
+        cmd += [str(Path(tmp) / "out") if a == "OUT" else a for a in COMMANDS.get(kind, extra)]
         t = time.perf_counter()
         try:
             proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
@@ -101,7 +114,7 @@ def run(kind: str, source: str, extra: list[str], timeout: float) -> tuple[float
         dt = time.perf_counter() - t
         err = proc.stderr.strip().splitlines()
         err = [ln for ln in err if not ln.startswith("Fontconfig")]
-        first = err[0] if err else proc.stdout.strip()[:200]
+        first = err[0] if err else (proc.stdout.strip().splitlines() or [""])[0][:200]
         clean = (proc.returncode in (0, 1, 2) and len(err) <= 1 and "Traceback" not in proc.stderr
                  and all(len(ln) <= 4000 for ln in (proc.stdout + proc.stderr).splitlines()))
         return dt, proc.returncode, first, clean
@@ -127,16 +140,22 @@ def main() -> None:
     ap.add_argument("--only", default="", help="comma list of case ids")
     ap.add_argument("--no-warm", dest="warm", action="store_false",
                     help="skip the second figure: the compile alone in a warm worker")
+    ap.add_argument("--commands", default=",".join(COMMANDS),
+                    help="comma list of the commands each program case runs")
     args = ap.parse_args()
     only = {s for s in args.only.split(",") if s}
-    print(f"{'case':24} {'CLI s':>7} {'exit':>5} clean {'warm s':>7}  first line of the error")
+    commands = [c for c in args.commands.split(",") if c in COMMANDS]
+    print(f"{'case':24} {'command':8} {'CLI s':>7} {'exit':>5} clean {'warm s':>7}  "
+          f"first line of the error")
     for cid, kind, src, extra in cases():
         if only and cid not in only:
             continue
-        dt, code, first, clean = run(kind, src, extra, args.timeout)
-        warm = f"{warm_compile(src)[0]:7.2f}" if kind == "build" and args.warm else "      -"
-        print(f"{cid:24} {dt:7.1f} {str(code):>5} {'yes' if clean else 'NO ':5} {warm}  {first[:150]}",
-              flush=True)
+        for cmd in commands if kind == "build" else [kind]:
+            dt, code, first, clean = run(cmd, src, extra, args.timeout)
+            warm = (f"{warm_compile(src)[0]:7.2f}" if cmd == "build" and args.warm
+                    else "      -")
+            print(f"{cid:24} {cmd:8} {dt:7.1f} {str(code):>5} {'yes' if clean else 'NO ':5} "
+                  f"{warm}  {first[:150]}", flush=True)
 
 
 if __name__ == "__main__":

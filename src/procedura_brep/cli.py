@@ -209,18 +209,13 @@ def export(
     quiet: QuietOption = False,
 ) -> None:
     """Write the export bundle of PROGRAM (no gates, no report)."""
-    from .errors import OutputError
-    from .export.bundle import write_bundle
-    from .rundir import output_reason
+    from . import commands
     fmts = _formats(formats)
     _output_dir(out)
     with _progress(quiet) as progress:
         model = _compiled(program, progress=progress)
-        progress(f"writing {len(model.parts)} parts as {', '.join(fmts)}")
-        try:
-            files = write_bundle(model, out, formats=fmts, step_schema=step_schema.value)
-        except OSError as exc:
-            raise OutputError(out, output_reason(exc, out)) from None
+        files = commands.export(model, out, formats=fmts, step_schema=step_schema.value,
+                                progress=progress)
     typer.echo(f"wrote {len(files)} files -> {out}")
     for rel in sorted(files):
         typer.echo(f"  {rel}")
@@ -239,27 +234,26 @@ def simulate(
     """Run the MuJoCo battery B0-B7; exit 1 when any check fails, 2 when TARGET is unusable."""
     import json
 
+    from . import commands
     from .errors import InputError
-    from .sim import run_battery
     if not target.exists():
         raise InputError(f"{target} does not exist; pass a run directory or a program file")
     if target.is_dir() and not (target / "program.py").is_file():
         raise InputError(f"{target} has no program.py; build it first "
                          f"(procedura-brep build PROGRAM -o {target}) or pass a program file")
-    if target.is_file():
-        _read(target)
+    program = target if target.is_file() else target / "program.py"
+    source = _read(program)
     if out is not None:
         _output_dir(out)
     with _progress(quiet) as progress:
-        progress("running the MuJoCo battery")
-        report = run_battery(target, out_dir=out)
-    data = report.as_dict()
+        model = _compiled(program, source, progress=progress)
+        data = commands.simulate(model, target, out=out, progress=progress)
     if json_:
         typer.echo(json.dumps(data, indent=2, default=str))
     else:
         from .console import print_battery
         print_battery(data)
-    raise typer.Exit(EXIT_OK if report.passed else EXIT_FAIL)
+    raise typer.Exit(EXIT_OK if data["passed"] else EXIT_FAIL)
 
 
 @app.command()
@@ -362,8 +356,8 @@ def check(
     """
     import json
 
+    from . import commands
     from .errors import CompileError
-    from .gates import check_model
     from .paths import program_name
     source = _read(program)
     with _progress(quiet) as progress:
@@ -376,15 +370,20 @@ def check(
                                    "compiled": False, "error": str(exc),
                                    "findings": [f.as_dict() for f in exc.findings]}, indent=2))
             raise typer.Exit(EXIT_USAGE) from None
-        progress("running the gates")
-        report = check_model(model, source)
-    data = report.as_dict()
+        try:
+            data = commands.check(model, source, progress=progress)
+        except commands.StageError as exc:  # out of memory or time: a failed check, exit 1
+            if not json_:
+                raise
+            typer.echo(json.dumps({"model": program_name(program), "passed": False,
+                                   "compiled": True, "error": str(exc)}, indent=2))
+            raise typer.Exit(EXIT_FAIL) from None
     if json_:
         typer.echo(json.dumps({**data, "compiled": True}, indent=2))
     else:
         from .console import print_check
         print_check(data)
-    raise typer.Exit(EXIT_OK if report.passed else EXIT_FAIL)
+    raise typer.Exit(EXIT_OK if data["passed"] else EXIT_FAIL)
 
 
 @app.command()
@@ -402,8 +401,8 @@ def render(
     quiet: QuietOption = False,
 ) -> None:
     """Render views of PROGRAM (parts-colour, grey clay or PBR), with cache and staleness."""
+    from . import commands
     from .errors import EditError, RangeError
-    from .render import render_to_dir
     from .render.api import MODES, SIZE_RANGE
     from .render.views import parse_views
     if mode not in MODES:  # refused before the compile
@@ -418,17 +417,13 @@ def render(
     _output_dir(out)
     with _progress(quiet) as progress:
         model = _compiled(program, progress=progress)
-        progress("rendering")
-        try:
-            res = render_to_dir(model, out, views=views, mode=mode, size=size, sheet=sheet,  # type: ignore[arg-type]
-                                close_up=close_up, frames_overlay=frames)
-        except ValueError as exc:
-            raise EditError(str(exc)) from None
-    typer.echo(f"{len(res.rendered)} rendered, {len(res.cached)} from cache "
-               f"({res.seconds:.2f} s) -> {out}")
-    if res.stale_before:
-        typer.echo(f"replaced stale views: {', '.join(res.stale_before)}")
-    for key, path in sorted(res.paths.items()):
+        res = commands.render(model, out, views=views, mode=mode, size=size, sheet=sheet,
+                              close_up=close_up, frames_overlay=frames, progress=progress)
+    typer.echo(f"{len(res['rendered'])} rendered, {len(res['cached'])} from cache "
+               f"({res['seconds']:.2f} s) -> {out}")
+    if res["stale_before"]:
+        typer.echo(f"replaced stale views: {', '.join(res['stale_before'])}")
+    for key, path in sorted(res["paths"].items()):
         typer.echo(f"  {key}: {path}")
 
 

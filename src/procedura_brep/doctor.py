@@ -64,6 +64,20 @@ def _freecad() -> Check:
     return Check("FreeCAD (optional)", True, exe)
 
 
+def _isolation() -> Check:
+    """Which OS layers a compile child gets here (a probe child applies them to itself)."""
+    from .program.isolation import probe
+    fix = ("Landlock needs Linux >= 5.13 (and not disabled with lsm=); the network namespace "
+           "needs root or unprivileged user namespaces; the own uid needs root")
+    try:
+        res = probe()
+    except OSError as exc:
+        return Check("sandbox isolation (optional)", False, f"the probe failed: {exc}", fix,
+                     optional=True)
+    return Check("sandbox isolation" + ("" if not res.missing else " (optional)"),
+                 not res.missing, res.line(), fix, optional=True)
+
+
 def run_checks(*, model: str | None, base_url: str | None, ping: bool) -> list[Check]:
     """Every check, in a stable order."""
     os.environ.setdefault("MUJOCO_GL", "egl")
@@ -76,6 +90,7 @@ def run_checks(*, model: str | None, base_url: str | None, ping: bool) -> list[C
         _render(),
         _freecad(),
         _module("yourdfpy", "yourdfpy", "pip install yourdfpy"),
+        _isolation(),
     ]
     if shutil.which("check_urdf") is None:
         checks.append(Check("check_urdf (optional)", False, "not found", "apt-get install -y liburdfdom-tools",

@@ -9,6 +9,9 @@ sends its JSON result back over a pipe, with ``{"stage": ..., "line": ...}`` mes
 limit, kills the child on overrun, and turns every way the child can die into one
 :class:`ChildFailure` with a one-line message.
 
+Users: the pipeline (``build``, and ``generate``'s builds) and :mod:`procedura_brep.commands`
+(``check``, ``render``, ``export``, ``simulate``).
+
 Fork before the parent ever meshes: a child forked after OCCT's parallel mesher ran hangs. The
 pipeline keeps every tessellation in the child, so the parent only reads BRep (volumes, boxes).
 """
@@ -29,6 +32,9 @@ from .config import PARENT, ParentLimits
 from .paths import json_default
 
 Send = Callable[[dict[str, Any]], None]
+#: Exception types (by name) that mean "out of memory" from native code under RLIMIT_AS.
+OUT_OF_MEMORY = ("Standard_OutOfMemory", "bad_alloc")
+PR_SET_PDEATHSIG = 1
 
 
 class ChildFailure(Exception):
@@ -53,8 +59,10 @@ def run_limited(fn: Callable[[Send], dict[str, Any]], *, stage: str,
     """
     lim = limits or PARENT
     r, w = os.pipe()
+    parent = os.getpid()
     pid = os.fork()
     if pid == 0:  # child: never returns
+        _die_with(parent)
         _child(fn, w, r, lim)
     os.close(w)
     current = {"stage": stage}
@@ -67,6 +75,19 @@ def run_limited(fn: Callable[[Send], dict[str, Any]], *, stage: str,
         finally:
             os.close(r)
     return result
+
+
+def _die_with(parent: int) -> None:
+    """SIGKILL this child when the process that forked it dies (a killed CLI must not leave
+    its limited child running, since the parent is what enforces the wall-clock limit)."""
+    try:
+        import ctypes
+        libc = ctypes.CDLL("libc.so.6", use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    except (OSError, AttributeError):  # pragma: no cover - not Linux
+        return
+    if os.getppid() != parent:  # it died before the prctl
+        os._exit(3)
 
 
 def _child(fn: Callable[[Send], dict[str, Any]], w: int, r: int, lim: ParentLimits) -> None:
@@ -90,6 +111,8 @@ def _child(fn: Callable[[Send], dict[str, Any]], w: int, r: int, lim: ParentLimi
             out = {"failure": {"kind": "error", "type": type(exc).__name__, "message": str(exc),
                                "oserror": isinstance(exc, OSError),
                                "procedura": isinstance(exc, ProceduraError)}}
+            if type(exc).__name__ in OUT_OF_MEMORY:  # OCCT's own, under the same limit
+                out = {"failure": {"kind": "memory", "message": "ran out of memory"}}
         _write(w, out)
     except MemoryError:
         code = 3

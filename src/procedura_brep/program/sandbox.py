@@ -125,12 +125,15 @@ class Worker:
         self._proc: subprocess.Popen[str] | None = None
         self._lock = threading.Lock()
         self._ids = itertools.count(1)
+        #: the OS layers the last compile child reported (``applied: ...; not applied: ...``)
+        self.isolation = "unknown (nothing compiled yet)"
 
     def start(self) -> "Worker":
         """Start the worker process (idempotent); returns immediately, ready on first use."""
         if self._proc is None or self._proc.poll() is not None:
             self._proc = subprocess.Popen(
-                [sys.executable, "-m", "procedura_brep.program.worker"], stdin=subprocess.PIPE,
+                # -P: the start folder (the temp dir) is not on the import path
+                [sys.executable, "-P", "-m", "procedura_brep.program.worker"], stdin=subprocess.PIPE,
                 stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=clean_env(),
                 cwd=tempfile.gettempdir())
             self._ready = False
@@ -185,6 +188,8 @@ class Worker:
                     reply = json.loads(line)
                 except ValueError:
                     reply = {}
+                self.isolation = _isolation_line(scratch)
+                log.debug("compile child isolation: %s", self.isolation)
                 model = _result(reply if isinstance(reply, dict) else {}, scratch, options.limits,
                                 name=options.name)
                 if options.cache and model.ok:
@@ -193,6 +198,19 @@ class Worker:
                 return model
             finally:
                 shutil.rmtree(scratch, ignore_errors=True)
+
+
+def _isolation_line(scratch: str) -> str:
+    """``applied: ...; not applied: ...`` from the head of the child's ``child.log`` (written
+    before any program code runs; bounded, printable ASCII only)."""
+    try:
+        with open(os.path.join(scratch, "child.log"), "rb") as fh:
+            head = fh.read(512).decode("ascii", "replace").splitlines()[:2]
+    except OSError:
+        return "unknown (no child.log)"
+    fields = dict(ln.split(":", 1) for ln in head if ":" in ln)
+    clean = {k: re.sub(r"[^a-z_ ]", "", v).strip() or "-" for k, v in fields.items()}
+    return f"applied: {clean.get('isolation', '-')}; not applied: {clean.get('not applied', '-')}"
 
 
 def refuse_oversized(source: str, limits: SandboxLimits = SANDBOX) -> None:

@@ -37,8 +37,10 @@ def child_uid(pid: int) -> int:
 def _limit_child(limits: dict[str, Any], scratch: str, cache_dir: str | None) -> int | None:
     """Apply every limit to this (child) process; returns an fd of the part cache, if any.
 
-    Then the OS layers of :mod:`.isolation` (a private network namespace, no-new-privs, a
-    seccomp filter denying sockets and exec), each where the kernel allows it. When the worker
+    Then the OS layers of :mod:`.isolation` (a private network namespace, no-new-privs,
+    Landlock file access beneath the scratch dir (read-write), the cache and the library
+    folders (read-only), a seccomp filter denying sockets, exec, namespaces and new processes),
+    each where the kernel allows it; ``child.log`` names those applied and those not. When the worker
     runs as root (CI, containers), the child also drops to its own unprivileged uid
     (:func:`child_uid`): the scratch dir is handed over first, and the cache folder stays
     readable through an fd opened before the switch, so the program can read neither root-only
@@ -70,11 +72,14 @@ def _limit_child(limits: dict[str, Any], scratch: str, cache_dir: str | None) ->
         except OSError:
             cache_fd = None
     from .isolation import isolate
-    layers = isolate()
+    layers = isolate(scratch=scratch, read_fds=[cache_fd] if cache_fd is not None else [])
     if os.geteuid() == 0:
         _drop_root(scratch)
-        layers.append("own_uid")
-    os.write(log, ("isolation: " + " ".join(layers) + "\n").encode())
+        layers.applied.append("own_uid")
+    else:
+        layers.missing.append("own_uid")
+    os.write(log, ("isolation: " + " ".join(layers.applied) + "\n"
+                   + "not applied: " + " ".join(layers.missing) + "\n").encode())
     return cache_fd
 
 

@@ -218,6 +218,18 @@ def failures(report: BatteryReport | dict) -> list[Finding]:
     return out
 
 
+def run_bundle(model: CompiledModel, root: str | Path, *, checks: Iterable[str] | None = None,
+               frames: bool = True) -> BatteryReport:
+    """:func:`run_battery` of an already compiled ``model`` over the bundle directory ``root``
+    (written first when it has no ``model.xml``), as for a run directory."""
+    root = Path(root)
+    if not (root / "model.xml").exists():
+        from ..export.bundle import write_bundle
+        write_bundle(model, root, formats=("urdf", "usd", "mjcf"))
+    return _run(model, root, tuple(c for c in ALL_CHECKS if checks is None or c in set(checks)),
+                frames, False)
+
+
 def _run(model: CompiledModel, root: Path, wanted: tuple[str, ...], frames: bool,
          temp: bool) -> BatteryReport:
     """The checks of :func:`run_battery` over the bundle at ``root``."""
