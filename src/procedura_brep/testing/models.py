@@ -68,9 +68,10 @@ def compiled(source: str, *, worker: Worker | None = None, name: str = "model",
         AssertionError: the program did not compile cleanly; the message lists the error
             findings (code, part or mate, line, message).
     """
+    from procedura_brep.findings import blocking
     from procedura_brep.program.sandbox import CompileOptions, default_worker
     model = (worker or default_worker()).compile(source, CompileOptions(name=name, cache=cache))
-    errors = [f for f in model.findings if f.severity == "error"]
+    errors = blocking(model.findings)
     if errors or not model.parts:
         rows = "\n".join(f"  {f.code} {f.part or f.mate or ''} line {f.line}: {f.message}"
                          for f in errors) or "  (no parts)"
