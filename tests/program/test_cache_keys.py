@@ -162,3 +162,14 @@ def test_cached_parts_equal_a_cache_free_compile_after_edits(w):
     assert rebuilt(warm) == {"base"}
     cold = w.compile(src, CompileOptions(cache=False))
     assert volumes(warm) == volumes(cold)
+
+
+def test_material_declarations_keep_per_part_keys(w):
+    """A program's own material(...) lines never reach a solid: they keep per-part keys, so a
+    helper added later still rebuilds nothing and a param edit only its readers."""
+    src = LAMP.replace("# === parts ===\n", "# === parts ===\nmaterial(\"lamp_red\", base=\"painted_steel\", "
+                                            "rgb=(0.8, 0.1, 0.1))\n", 1)
+    assert "lamp_red" in src
+    compiled(src, worker=w)
+    assert rebuilt(compiled(helpers(src, "def unused():\n    return 1\n\n"), worker=w)) == set()
+    assert rebuilt(compiled(set_params(src, {"pin_d": 9.0}), worker=w)) == {"post", "arm"}
