@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..articulation import articulate, link_masses
+from ..articulation import Articulation, articulate, link_masses
 from ..config import TOL
 from ..program.model import CompiledModel
 from . import contact
@@ -38,7 +38,7 @@ ALL_CHECKS: tuple[str, ...] = ("B0", "B1", "B2", "B3", "B4", "B5", "B6", "B7")
 TEMP_PREFIX = "procedura-battery-"
 
 
-def _load(source: CompiledModel | str | Path, out_dir: Path | None
+def _load(source: CompiledModel | str | Path, out_dir: Path | None, art: Articulation | None = None
           ) -> tuple[CompiledModel, Path, bool]:
     """``(model, bundle root, whether the root is a temp dir this call created)``."""
     if isinstance(source, CompiledModel):
@@ -46,7 +46,7 @@ def _load(source: CompiledModel | str | Path, out_dir: Path | None
         temp = out_dir is None
         root = out_dir or Path(tempfile.mkdtemp(prefix=TEMP_PREFIX))
         try:
-            write_bundle(source, root, formats=("urdf", "usd", "mjcf"))
+            write_bundle(source, root, formats=("urdf", "usd", "mjcf"), art=art)
         except BaseException:
             if temp:
                 shutil.rmtree(root, ignore_errors=True)
@@ -56,7 +56,7 @@ def _load(source: CompiledModel | str | Path, out_dir: Path | None
     if path.is_file():  # a program file: compile, export next to out_dir
         from ..program import compile_source
         model = compile_source(path.read_text(), name=program_name(path))
-        return _load(model, out_dir)
+        return _load(model, out_dir, art)
     program = path / "program.py"
     if not program.exists():
         raise FileNotFoundError(f"{path} has no program.py; pass a bundle directory written by "
@@ -65,7 +65,7 @@ def _load(source: CompiledModel | str | Path, out_dir: Path | None
     model = compile_source(program.read_text(), name=program_name(program))
     if not (path / "model.xml").exists():
         from ..export.bundle import write_bundle
-        write_bundle(model, path, formats=("urdf", "usd", "mjcf"))
+        write_bundle(model, path, formats=("urdf", "usd", "mjcf"), art=art)
     return model, path, False
 
 
@@ -172,7 +172,8 @@ def check_b3(model: CompiledModel, art) -> CheckResult:
 
 
 def run_battery(source: CompiledModel | str | Path, *, out_dir: str | Path | None = None,
-                checks: Iterable[str] | None = None, frames: bool = True) -> BatteryReport:
+                checks: Iterable[str] | None = None, frames: bool = True,
+                art: Articulation | None = None) -> BatteryReport:
     """Run the battery; never raises for a failing model (each check reports instead).
 
     Args:
@@ -182,22 +183,24 @@ def run_battery(source: CompiledModel | str | Path, *, out_dir: str | Path | Non
             removed afterwards, so no frames are saved: the report's notes say so).
         checks: the ids to run (default all).
         frames: save up to 8 frames of a failing phase.
+        art: the articulation the bundle was exported with (default: :func:`articulate` of
+            the model); every check reads links, joints, wheels and the base from it.
     """
     wanted = tuple(c for c in ALL_CHECKS if checks is None or c in set(checks))
-    model, root, temp = _load(source, Path(out_dir) if out_dir else None)
+    model, root, temp = _load(source, Path(out_dir) if out_dir else None, art)
     try:
-        return _run(model, root, wanted, frames and not temp, temp)
+        return _run(model, root, wanted, frames and not temp, temp, art)
     finally:
         if temp:
             shutil.rmtree(root, ignore_errors=True)
 
 
 def _run(model: CompiledModel, root: Path, wanted: tuple[str, ...], frames: bool,
-         temp: bool) -> BatteryReport:
+         temp: bool, art: Articulation | None = None) -> BatteryReport:
     """The checks of :func:`run_battery` over the bundle at ``root``."""
     import mujoco
-    from ..export.mjcf import build_mjcf, wheel_joints
-    art = articulate(model)
+    from ..export.mjcf import build_mjcf
+    art = art or articulate(model)
     masses = link_masses(model, art)
     report = BatteryReport([])
     if temp:
@@ -227,10 +230,10 @@ def _run(model: CompiledModel, root: Path, wanted: tuple[str, ...], frames: bool
     run("B1", lambda: check_b1(m_file, art), m_file)
     welded = None
     if "B2" in wanted:
-        welded = build_mjcf(model, art=art, masses=masses, free_root=False).spec.compile()
+        welded = build_mjcf(model, art=art.welded(), masses=masses).spec.compile()
     run("B2", lambda: check_b2(model, art, welded), welded)
     run("B3", lambda: check_b3(model, art))
-    wheels = wheel_joints(model, art)
+    wheels = list(art.wheels)
     floor_z = float(m_file.geom("floor").pos[2])
     run("B4", lambda: check_b4(m_file, art, wheels, floor_z), m_file)
     run("B5", lambda: check_b5(art, masses, root / "urdf"))
