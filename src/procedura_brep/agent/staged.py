@@ -2,7 +2,8 @@
 mate-driven build one part per call, decoupled-critic refine, then the final build.
 
 One frozen model answers every call through a :class:`~procedura_brep.llm.Client`; each call has
-a ``role`` (``plan``, ``review``, ``build``, ``critic``, ``fixer``) and a run-wide ``step``
+a ``role`` (``plan``, ``review``, ``build``, ``critic``, ``fixer``, ``articulation``,
+``battery_fixer``) and a run-wide ``step``
 number, so a transcript replays call for call. Everything between the calls is deterministic
 (:class:`~procedura_brep.agent.tools.Tools`).
 
@@ -101,6 +102,8 @@ class StagedRun:
         self.name = "model"
         self._model: CompiledModel | None = None
         self.refine_report: dict[str, Any] = {}
+        self.articulation_report: dict[str, Any] = {}
+        self._prebuilt: tuple[str | None, Any] = (None, None)
 
     # model calls -----------------------------------------------------------------------------
 
@@ -131,6 +134,8 @@ class StagedRun:
                 self._build()
             if st.stage == "refine":
                 self._refine()
+            if st.stage == "articulation":
+                self._articulation()
             if st.stage == "finish":
                 return self._finish("ok")
         except BudgetExceeded as exc:
@@ -337,7 +342,7 @@ class StagedRun:
 
     def _refine(self) -> None:
         if not self.options.refine:
-            self._advance("finish")
+            self._advance("articulation")
             return
         model = self._current_model()
         parts = ", ".join(p.name for p in model.parts) if model else ""
@@ -350,6 +355,22 @@ class StagedRun:
         if source != self.state.source:
             self.state.source = source
             self._model = None
+        self._advance("articulation")
+
+    # articulation ----------------------------------------------------------------------------
+
+    def _articulation(self) -> None:
+        """Evidence, the planning call, gated mate edits, the battery and one battery fix
+        (:mod:`.articulation`); the build it made is reused by the finish when nothing changed."""
+        if self.options.articulation and self.state.source:
+            from .articulation import ArticulationStage
+            stage = ArticulationStage(self, history_from=len(self.state.committed)
+                                      + int(self.refine_report.get("edits", 0)))
+            source = stage.run(self.state.source)
+            self.articulation_report = stage.report
+            self._prebuilt = (stage.built_source, stage.build)
+            if source != self.state.source:
+                self.state.source, self._model = source, None
         self._advance("finish")
 
     # finish ----------------------------------------------------------------------------------
@@ -360,8 +381,10 @@ class StagedRun:
         if st.source:
             self.progress("finish", "building the run directory (exports, gates"
                           + (", battery)" if self.options.simulate else ")"))
-            build = self.tools.final_build(st.source, self.out_dir, simulate=self.options.simulate,
-                                           formats=self.options.formats)
+            pre = self._prebuilt  # the articulation stage's build of this very program
+            build = (pre[1] if pre[1] is not None and pre[0] == st.source else
+                     self.tools.final_build(st.source, self.out_dir, simulate=self.options.simulate,
+                                            formats=self.options.formats))
             result.build = build
             if status == "ok" and not build.ok:
                 result.status, result.message = build.status, build.reason
@@ -383,6 +406,7 @@ class StagedRun:
             "committed": [{"name": c.name, "warning": c.warning} for c in st.committed],
             "skipped": st.skipped,
             "refine": result.refine,
+            **({"articulation": self.articulation_report} if self.articulation_report else {}),
             "overhead_per_part_s": st.per_part_s,
             "overhead_median_s": sorted(per_part)[len(per_part) // 2] if per_part else None,
             "usage": self.client.ledger.summary(),
