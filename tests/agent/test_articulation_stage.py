@@ -171,3 +171,42 @@ def test_no_articulation_flag_reaches_the_options(monkeypatch, tmp_path):
     CliRunner().invoke(app, ["generate", "a lamp", "--model", f"replay:{TAPE}", "-o",
                              str(tmp_path / "p"), "-q"])
     assert seen["options"].articulation is True
+
+
+class _Host:
+    """The bits of a staged run the stage's edits need (no model calls)."""
+
+    def __init__(self, out_dir: Path) -> None:
+        from procedura_brep.agent.staged import StagedOptions
+        from procedura_brep.agent.tools import Tools
+        self.tools, self.options, self.out_dir = Tools(), StagedOptions(), out_dir
+        self.name, self.prompt, self.lines = "lamp", "a lamp", []
+
+    def progress(self, stage: str, text: str) -> None:
+        self.lines.append(text)
+
+
+def test_promotions_are_applied_or_refused_by_evidence_and_logged(tmp_path):
+    """The lamp with its arm seated (static): promoting the post's foot (the post is round about
+    it) to a revolute is applied as a program edit; promoting the arm's seat (a box on a post
+    whose axis is not the seat's) is refused and logged, and the program keeps it static."""
+    from procedura_brep.agent.articulation import ArticulationStage
+    from procedura_brep.articulation import articulate, mates_evidence
+    src = LAMP.read_text().replace('"revolute", nominal="pin_d", fit="clearance", limits=(-45, 45)',
+                                   '"seat_face", nominal="pin_d", fit="clearance"')
+    host = _Host(tmp_path)
+    stage = ArticulationStage(host)
+    model = host.tools.compile(src, "lamp")
+    plan = parse_articulation('{"promote": [{"mate": "post_foot", "type": "revolute", "limits": null,'
+                              ' "drive": "velocity"}, {"mate": "arm_pivot", "type": "revolute",'
+                              ' "limits": [-30, 30]}], "base": "welded"}', model)
+    new = stage.apply(src, model, plan, mates_evidence(model))
+    rows = {r["mate"]: r for r in stage.report["edits"]}
+    assert rows["post_foot"]["accepted"], rows["post_foot"]
+    assert not rows["arm_pivot"]["accepted"]
+    assert "promote arm_pivot to revolute refused" in rows["arm_pivot"]["reason"]
+    assert 'mate("post.foot", "base.top", "revolute", nominal="spigot_d", fit="location", limits=None)' in new
+    assert '"seat_face", nominal="pin_d"' in new
+    art = articulate(host.tools.compile(new, "lamp"))
+    assert [(j.name, j.type, j.drive) for j in art.joints] == [("post_foot", "continuous", "velocity")]
+    assert (tmp_path / "history" / "001-articulation-post_foot.py").read_text() == new
