@@ -119,3 +119,16 @@ def test_a_position_drive_without_limits_is_refused(lamp):
     art = _with_joint(articulate(lamp), LAMP, type="continuous", lower=None, upper=None)
     with pytest.raises(ArticulationError, match="position drive but no limits"):
         build_mjcf(lamp, art=art)
+
+
+def test_the_battery_takes_the_articulation_it_is_given(lamp, tmp_path):
+    """Handed a lamp articulation with its arm flagged as a wheel on a free base, the battery
+    exports that (a free root in model.xml) and drives that wheel in B4 (not skipped)."""
+    import mujoco
+    from procedura_brep.sim import run_battery
+    art = dataclasses.replace(articulate(lamp), wheels=[LAMP], base="free")
+    report = run_battery(lamp, out_dir=tmp_path, checks=["B4"], frames=False, art=art)
+    b4 = report.check("B4")
+    assert not b4.skipped and b4.measured["wheels"] == 1
+    m = mujoco.MjModel.from_xml_path(str(tmp_path / "model.xml"))
+    assert any(int(m.jnt_type[i]) == int(mujoco.mjtJoint.mjJNT_FREE) for i in range(m.njnt))
