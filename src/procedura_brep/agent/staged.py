@@ -366,7 +366,11 @@ class StagedRun:
             from .articulation import ArticulationStage
             stage = ArticulationStage(self, history_from=len(self.state.committed)
                                       + int(self.refine_report.get("edits", 0)))
-            source = stage.run(self.state.source)
+            try:
+                source = stage.run(self.state.source)
+            except ProceduraError as exc:  # the program as refined ships; the finish reports it
+                source = self.state.source
+                stage.report["findings"].append(f"the articulation stage stopped: {exc}")
             self.articulation_report = stage.report
             self._prebuilt = (stage.built_source, stage.build)
             if source != self.state.source:
