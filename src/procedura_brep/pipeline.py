@@ -321,17 +321,11 @@ def after_compile(model: CompiledModel, source: str, root: Path, fmts: tuple[str
     timings: dict[str, float] = {}
     report: dict[str, Any] = {}
     findings: list[Finding] = []
-    evidence = None
-    if len(fmts) > 1:
-        t = time.perf_counter()
-        from .articulation import mates_evidence
-        evidence = mates_evidence(model)
-        timings["evidence_s"] = time.perf_counter() - t
     art = None  # the one articulation the exports and the battery take
     if simulate or {"usd", "urdf", "mjcf"} & set(fmts):
         from .articulation import articulate
         t = time.perf_counter()
-        art = articulate(model, evidence=evidence)
+        art = articulate(model)
         timings["articulate_s"] = time.perf_counter() - t
     t = time.perf_counter()
     bundle_t: dict[str, float] = {}
@@ -339,6 +333,12 @@ def after_compile(model: CompiledModel, source: str, root: Path, fmts: tuple[str
                            step_schema=step_schema, art=art)  # type: ignore[arg-type]
     timings.update({f"export_{k}_s": v for k, v in bundle_t.items()})
     timings["export_s"] = time.perf_counter() - t
+    evidence = None
+    if len(fmts) > 1:
+        t = time.perf_counter()
+        from .articulation import mates_evidence
+        evidence = mates_evidence(model)
+        timings["evidence_s"] = time.perf_counter() - t
     write_atomic(root / "mates.json", dump_json(mates_json(model, evidence)))
     if gates:
         send({"stage": "gates", "line": "running the gates"})
