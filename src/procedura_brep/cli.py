@@ -454,6 +454,8 @@ def generate(
     no_refine: Annotated[bool, typer.Option("--no-refine", help="Ablation: ship the draft.")] = False,
     no_materials: Annotated[bool, typer.Option("--no-materials", help="Skip the materials stage (library, critic, sub-parts).")] = False,
     no_simulate: Annotated[bool, typer.Option("--no-simulate", help="Skip the MuJoCo battery.")] = False,
+    no_articulation: Annotated[bool, typer.Option("--no-articulation", help="No articulation planning call "
+                                                  "and no battery fix (the mates as built).")] = False,
     resume: Annotated[Optional[Path], typer.Option("--resume", help="Continue the killed staged run in DIR.")] = None,
     json_out: Annotated[bool, typer.Option("--json", help="Print report.json on stdout.")] = False,
     quiet: QuietOption = False,
@@ -498,7 +500,7 @@ def generate(
                 from .agent.staged import StagedOptions, generate_staged
                 opts = StagedOptions(plan=not no_plan, review=not no_review, feedback=not no_feedback,
                                      refine=not no_refine, materials=not no_materials, attempts=attempts,
-                                     simulate=not no_simulate,
+                                     simulate=not no_simulate, articulation=not no_articulation,
                                      formats=fmts or None)
                 sres = generate_staged(prompt, out, model=setting.model, base_url=setting.base_url,
                                        options=opts, image=png, image_model=image_setting.model,

@@ -82,13 +82,12 @@ def rover(worker):
 @pytest.mark.slow
 def test_rover_wheels_lifted_off_the_ground_are_not_wheels(rover, tmp_path):
     from procedura_brep.articulation import articulate
-    from procedura_brep.export.mjcf import wheel_joints
     from procedura_brep.program.model import from_json, to_json
     lifted = from_json(to_json(rover))
     art = articulate(lifted)
     up = np.eye(4)
     up[2, 3] = 80.0
-    wheel_parts = {p for w in wheel_joints(lifted, art) for lk in art.subtree(art.joint(w).child)
+    wheel_parts = {p for w in art.wheels for lk in art.subtree(art.joint(w).child)
                    for p in art.link(lk).parts}
     assert len(wheel_parts) >= 4
     for p in lifted.parts:

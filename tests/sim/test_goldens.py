@@ -75,7 +75,6 @@ def test_golden_usd_base_matches_mjcf(name, worker, tmp_path_factory):
     """A wheel-less golden's USD root is welded to the world by one FixedJoint (as model.xml
     welds it); the rover's base is free in both."""
     from pxr import Usd, UsdPhysics
-    from procedura_brep.export.mjcf import wheel_joints
     model, out = _built(name, worker, tmp_path_factory)
     art = articulate(model)
     stage = Usd.Stage.Open(str(out / "model.usda"))
@@ -83,7 +82,8 @@ def test_golden_usd_base_matches_mjcf(name, worker, tmp_path_factory):
     import mujoco
     m = mujoco.MjModel.from_xml_path(str(out / "model.xml"))
     free_in_mjcf = any(m.jnt_type[i] == mujoco.mjtJoint.mjJNT_FREE for i in range(m.njnt))
-    if wheel_joints(model, art):
+    assert art.free == bool(art.wheels)
+    if art.free:
         assert not fixed and free_in_mjcf
     else:
         assert [p.GetName() for p in fixed] == [f"{art.root.name}__world"] and not free_in_mjcf

@@ -2,7 +2,8 @@
 mate-driven build one part per call, decoupled-critic refine, materials, then the final build.
 
 One frozen model answers every call through a :class:`~procedura_brep.llm.Client`; each call has
-a ``role`` (``plan``, ``review``, ``build``, ``critic``, ``fixer``) and a run-wide ``step``
+a ``role`` (``plan``, ``review``, ``build``, ``critic``, ``fixer``, ``articulation``,
+``battery_fixer``) and a run-wide ``step``
 number, so a transcript replays call for call. Everything between the calls is deterministic
 (:class:`~procedura_brep.agent.tools.Tools`).
 
@@ -106,6 +107,8 @@ class StagedRun:
         self._model: CompiledModel | None = None
         self.refine_report: dict[str, Any] = {}
         self.reference_info: dict[str, Any] = {"source": "file" if image else "none"}
+        self.articulation_report: dict[str, Any] = {}
+        self._prebuilt: tuple[str | None, Any] = (None, None)
 
     # model calls -----------------------------------------------------------------------------
 
@@ -137,7 +140,9 @@ class StagedRun:
             if st.stage == "refine":
                 self._refine()
             if st.stage == "materials":
-                materials_stage(self)
+                materials_stage(self, next_stage="articulation")
+            if st.stage == "articulation":
+                self._articulation()
             if st.stage == "finish":
                 return self._finish("ok")
         except BudgetExceeded as exc:
@@ -359,6 +364,27 @@ class StagedRun:
             self._model = None
         self._advance("materials")
 
+
+    # articulation ----------------------------------------------------------------------------
+
+    def _articulation(self) -> None:
+        """Evidence, the planning call, gated mate edits, the battery and one battery fix
+        (:mod:`.articulation`); the build it made is reused by the finish when nothing changed."""
+        if self.options.articulation and self.state.source:
+            from .articulation import ArticulationStage
+            stage = ArticulationStage(self, history_from=len(self.state.committed)
+                                      + int(self.refine_report.get("edits", 0)))
+            try:
+                source = stage.run(self.state.source)
+            except ProceduraError as exc:  # the program as refined ships; the finish reports it
+                source = self.state.source
+                stage.report["findings"].append(f"the articulation stage stopped: {exc}")
+            self.articulation_report = stage.report
+            self._prebuilt = (stage.built_source, stage.build)
+            if source != self.state.source:
+                self.state.source, self._model = source, None
+        self._advance("finish")
+
     # finish ----------------------------------------------------------------------------------
 
     def _finish(self, status: str, message: str = "") -> StagedResult:
@@ -367,8 +393,10 @@ class StagedRun:
         if st.source:
             self.progress("finish", "building the run directory (exports, gates"
                           + (", battery)" if self.options.simulate else ")"))
-            build = self.tools.final_build(st.source, self.out_dir, simulate=self.options.simulate,
-                                           formats=self.options.formats)
+            pre = self._prebuilt  # the articulation stage's build of this very program
+            build = (pre[1] if pre[1] is not None and pre[0] == st.source else
+                     self.tools.final_build(st.source, self.out_dir, simulate=self.options.simulate,
+                                            formats=self.options.formats))
             result.build = build
             if status == "ok" and not build.ok:
                 result.status, result.message = build.status, build.reason
@@ -401,6 +429,7 @@ class StagedRun:
             "skipped": st.skipped,
             "refine": result.refine,
             "materials": st.materials,
+            **({"articulation": self.articulation_report} if self.articulation_report else {}),
             "overhead_per_part_s": st.per_part_s,
             "overhead_median_s": sorted(per_part)[len(per_part) // 2] if per_part else None,
             "usage": self.client.ledger.summary(),

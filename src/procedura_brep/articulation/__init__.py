@@ -1,12 +1,17 @@
 """Articulation: links, joints and the kinematic tree; mass properties; geometric evidence.
 
+:class:`Articulation` is the value the exporters (URDF, MJCF, USD) and the MuJoCo battery take;
+:func:`articulate` builds it once from the compiled model (and its evidence). This package sits
+below ``export`` in the layer order: it imports ``program`` and ``kernel``, never ``export``.
+
 Example:
     >>> art = articulate(model)                      # doctest: +SKIP
     >>> [l.name for l in art.links], [j.name for j in art.joints]  # doctest: +SKIP
 """
 
 from .mass import MassProps, link_masses
-from .tree import Articulation, ArticulationError, Joint, Link, articulate, joint_limits
+from .tree import (Articulation, ArticulationError, Base, Drive, Joint, JointDof, Link, articulate,
+                   default_drive, joint_limits)
 
 
 def mates_evidence(model):  # noqa: ANN001, ANN201 - thin lazy wrapper
@@ -15,5 +20,6 @@ def mates_evidence(model):  # noqa: ANN001, ANN201 - thin lazy wrapper
     return _ev(model)
 
 
-__all__ = ["Articulation", "ArticulationError", "Joint", "Link", "MassProps", "articulate",
-           "joint_limits", "link_masses", "mates_evidence"]
+__all__ = ["Articulation", "ArticulationError", "Base", "Drive", "Joint", "JointDof", "Link",
+           "MassProps", "articulate", "default_drive", "joint_limits", "link_masses",
+           "mates_evidence"]

@@ -19,7 +19,6 @@ from typing import Any
 import numpy as np
 
 from ..config import TOL
-from ..export.meshes import part_mesh
 from ..kernel import Mesh, bbox
 from ..program.model import CompiledModel
 
@@ -124,7 +123,7 @@ def contact_area(a: Mesh, b: Mesh, *, band: float = TOL.contact_mm) -> float:
 
 def mates_evidence(model: CompiledModel) -> dict[str, Any]:
     """``{"parts": {name: {"symmetry": ...}}, "contacts": [{"a", "b", "area_mm2"}]}``."""
-    meshes = {p.name: part_mesh(p) for p in model.parts}
+    meshes = {p.name: p.mesh() for p in model.parts}
     boxes = {p.name: bbox(p.shape(), optimal=False) for p in model.parts}
     parts = {n: {"symmetry": symmetry_axis(m)} for n, m in meshes.items()}
     contacts = []

@@ -8,13 +8,18 @@ Frames (all 4x4, millimetres, world coordinates unless named ``_local``):
 
 Joint position 0 is the compiled pose; a mate's limits are shifted by its ``home`` value so that
 the exported range is relative to that pose (see :func:`joint_limits`).
+
+:class:`Articulation` is the one value every consumer takes: the URDF, MJCF and USD exporters and
+the MuJoCo battery read the links, joints, drives, wheels and the base (``free`` or ``welded``)
+from it and derive none of them again. :func:`articulate` builds it, once per compiled model,
+from the model and (optionally) its geometric evidence (:func:`.evidence.mates_evidence`).
 """
 
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
-from typing import Literal
+from dataclasses import dataclass, field, replace
+from typing import Any, Literal
 
 import numpy as np
 
@@ -26,6 +31,12 @@ log = logging.getLogger(__name__)
 
 JointType = Literal["revolute", "continuous", "prismatic", "spherical", "cylindrical"]
 DofType = Literal["revolute", "continuous", "prismatic"]
+#: How a joint is driven: ``position`` (a servo to a commanded position inside the limits; for a
+#: spherical joint, three hold servos about the frame's axes) or ``velocity`` (a speed servo: a
+#: continuous joint, a wheel).
+Drive = Literal["position", "velocity"]
+#: The root link: ``free`` (a free joint: a vehicle on its wheels) or ``welded`` to the world.
+Base = Literal["free", "welded"]
 
 #: Suffixes of a cylindrical joint's two exported joints (slide, then turn, on one axis).
 SLIDE, TURN = "__slide", "__turn"
@@ -43,6 +54,12 @@ class JointDof:
     upper: float | None
     effort: float
     velocity: float
+    drive: Drive = "position"
+
+
+def default_drive(jtype: JointType | DofType) -> Drive:
+    """The drive a joint of this type gets: velocity for a continuous turn, else position."""
+    return "velocity" if jtype == "continuous" else "position"
 
 
 class ArticulationError(ProceduraError, ValueError):
@@ -87,6 +104,10 @@ class Joint:
             pose, rad (None: a free turn); ``lower``/``upper`` are its slide limits, m.
         torque, angular_velocity: a cylindrical joint's turning limits (N m, rad/s); ``effort``
             and ``velocity`` are its sliding ones (N, m/s).
+        home: the mate's ``home`` (rad or m; a cylindrical joint's slide home, m), the position
+            of the compiled pose on the mate's own scale (limits are relative to it).
+        drive: how the joint is driven (a cylindrical joint: its slide; its turn is
+            :func:`default_drive` of the turn's type).
     """
 
     name: str
@@ -104,6 +125,8 @@ class Joint:
     turn_upper: float | None = None
     torque: float = 0.0
     angular_velocity: float = 0.0
+    home: float = 0.0
+    drive: Drive = "position"
 
     def dofs(self) -> list[JointDof]:
         """The 1-DOF joints this joint exports as (none for a spherical joint)."""
@@ -112,11 +135,11 @@ class Joint:
         if self.type == "cylindrical":
             turn: DofType = "continuous" if self.turn_lower is None else "revolute"
             return [JointDof(self.name + SLIDE, "prismatic", self.lower, self.upper, self.effort,
-                             self.velocity),
+                             self.velocity, self.drive),
                     JointDof(self.name + TURN, turn, self.turn_lower, self.turn_upper,
-                             self.torque, self.angular_velocity)]
+                             self.torque, self.angular_velocity, default_drive(turn))]
         return [JointDof(self.name, self.type, self.lower, self.upper, self.effort,  # type: ignore[arg-type]
-                         self.velocity)]
+                         self.velocity, self.drive)]
 
     @property
     def anchor_m(self) -> np.ndarray:
@@ -132,18 +155,42 @@ class Joint:
 
 @dataclass
 class Articulation:
-    """Links in tree order (root first), joints in the same order as their child links;
-    ``wheels``: the wheel joints (by evidence, :mod:`.wheels`), which make the base free."""
+    """Links in tree order (root first), joints in the same order as their child links.
+
+    Attributes:
+        name: the model name.
+        links: the rigid bodies, root first.
+        joints: one per non-root link, in link order.
+        part_link: part name -> the link it belongs to.
+        wheels: the wheel joints (by evidence, :mod:`.wheels`), driven by one uniform command.
+        base: ``free`` (a free root joint) or ``welded`` (fixed to the world); :func:`articulate`
+            frees the base exactly when there are wheels. Exporters write this value as given.
+    """
 
     name: str
     links: list[Link]
     joints: list[Joint]
     part_link: dict[str, str]
     wheels: list[str] = field(default_factory=list)
+    base: Base = "welded"
 
     @property
     def root(self) -> Link:
         return self.links[0]
+
+    @property
+    def free(self) -> bool:
+        """Whether the root link has a free joint."""
+        return self.base == "free"
+
+    @property
+    def wheel_links(self) -> list[str]:
+        """The child links of the wheel joints."""
+        return [self.joint(w).child for w in self.wheels]
+
+    def welded(self) -> Articulation:
+        """A copy with the base welded to the world (the battery's sweep scene)."""
+        return replace(self, base="welded")
 
     def link(self, name: str) -> Link:
         for lk in self.links:
@@ -182,6 +229,16 @@ def mate_option(mate: CompiledMate, key: str) -> float:
     if value is None:
         value = TYPES[mate.type].options[key].default
     return float(value)
+
+
+def mate_home(mate: CompiledMate) -> float:
+    """The mate's ``home`` in SI units (rad for a revolute, m for a prismatic or cylindrical
+    slide; 0 for a spherical joint)."""
+    if mate.type == "revolute":
+        return float(np.radians(mate_option(mate, "home")))
+    if mate.type in ("prismatic", "cylindrical"):
+        return mate_option(mate, "home") / 1000.0
+    return 0.0
 
 
 def joint_limits(mate: CompiledMate) -> tuple[JointType, float | None, float | None]:
@@ -228,8 +285,14 @@ def _groups(model: CompiledModel) -> dict[str, str]:
     return {p: find(p) for p in parent}
 
 
-def articulate(model: CompiledModel) -> Articulation:
-    """Group parts into links, turn kinematic mates into joints, check the tree.
+def articulate(model: CompiledModel, *, evidence: dict[str, Any] | None = None) -> Articulation:
+    """The articulation of ``model``: the one place links, joints, drives, wheels and the base
+    are decided.
+
+    Static mates group parts into links, kinematic mates become joints (limits relative to
+    ``home``, effort, velocity, the drive of :func:`default_drive`), the tree is checked, wheels
+    are found by evidence (``evidence["parts"][name]["symmetry"]`` when given, else computed)
+    and get one drive sign, and the base is free exactly when there are wheels.
 
     Raises:
         ArticulationError: no parts; a kinematic mate joining a link to itself or closing a loop;
@@ -261,7 +324,8 @@ def articulate(model: CompiledModel) -> Articulation:
         joints_by_child[c] = Joint(
             name=m.name, type=jtype, parent=p, child=c, frame=np.asarray(m.world_frame, float),
             lower=lo, upper=hi, effort=mate_option(m, "effort"),
-            velocity=mate_option(m, "velocity"), mate=m)
+            velocity=mate_option(m, "velocity"), mate=m, home=mate_home(m),
+            drive=default_drive(jtype))
         if jtype == "cylindrical":
             j = joints_by_child[c]
             alim = m.options.get("angle_limits")
@@ -294,16 +358,19 @@ def articulate(model: CompiledModel) -> Articulation:
             f"not joined to the root {root_name!r}: {names}; add a mate from each to a part "
             f"declared before it")
     art = Articulation(model.name, links, joints, part_link)
-    _drive_wheels(model, art)
+    _drive_wheels(model, art, evidence)
+    art.base = "free" if art.wheels else "welded"
     log.debug("articulated %s: %d links, %d joints, wheels %s", model.name, len(links),
               len(joints), art.wheels)
     return art
 
 
-def _drive_wheels(model: CompiledModel, art: Articulation) -> None:
+def _drive_wheels(model: CompiledModel, art: Articulation,
+                  evidence: dict[str, Any] | None) -> None:
     """Find the wheels and flip those that would roll backwards (see :mod:`.wheels`)."""
     from .wheels import find_wheels, flip, forward, rolling_direction
-    art.wheels = find_wheels(model, {lk.name: lk.parts for lk in art.links}, art.joints, art.subtree)
+    art.wheels = find_wheels(model, {lk.name: lk.parts for lk in art.links}, art.joints, art.subtree,
+                             evidence=evidence)
     if not art.wheels:
         return
     ahead = forward(art.root.frame, art.joint(art.wheels[0]).axis)

@@ -50,7 +50,8 @@ def is_round_about(symmetry: dict, point: np.ndarray, axis: np.ndarray) -> bool:
     return float(np.linalg.norm(q - (q @ axis) * axis)) <= TOL.wheel_centre_mm
 
 
-def find_wheels(model, links: dict[str, list[str]], joints: list, subtree) -> list[str]:
+def find_wheels(model, links: dict[str, list[str]], joints: list, subtree, *,
+                evidence: dict | None = None) -> list[str]:
     """Names of the wheel joints among ``joints`` (see the module doc).
 
     Args:
@@ -58,20 +59,24 @@ def find_wheels(model, links: dict[str, list[str]], joints: list, subtree) -> li
         links: link name -> its part names.
         joints: the articulation's joints.
         subtree: function link name -> the link and every link below it.
+        evidence: :func:`.evidence.mates_evidence` of ``model``, whose symmetry records are
+            used when given (else each candidate's symmetry axis is computed here).
     """
-    from ..export.meshes import part_mesh
     from .evidence import symmetry_axis
     continuous = [j for j in joints if j.type == "continuous"]
     if not continuous:
         return []
-    floor = min(float(part_mesh(p).vertices[:, 2].min()) for p in model.parts)
+    floor = min(float(p.mesh().vertices[:, 2].min()) for p in model.parts)
+    known = (evidence or {}).get("parts", {})
     out = []
     for j in continuous:
-        sym = symmetry_axis(part_mesh(model.part(j.mate.child)))
+        child = j.mate.child
+        sym = (known[child]["symmetry"] if child in known
+               else symmetry_axis(model.part(child).mesh()))
         if not is_round_about(sym, j.frame[:3, 3], j.axis):
             continue
         parts = [p for lk in subtree(j.child) for p in links[lk]]
-        low = min(float(part_mesh(model.part(p)).vertices[:, 2].min()) for p in parts)
+        low = min(float(model.part(p).mesh().vertices[:, 2].min()) for p in parts)
         if low - floor <= TOL.wheel_ground_mm:
             out.append(j.name)
     return out

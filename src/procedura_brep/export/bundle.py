@@ -17,7 +17,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Literal
 
-from ..articulation import articulate, link_masses
+from ..articulation import Articulation, articulate, link_masses
 from ..paths import write_atomic
 from ..program.model import CompiledModel
 
@@ -45,13 +45,16 @@ def parse_formats(text: str | Iterable[str] | None) -> tuple[str, ...]:
 
 def bundle_bytes(model: CompiledModel, *, formats: str | Iterable[str] | None = None,
                  timings: dict[str, float] | None = None,
-                 step_schema: Literal["AP214", "AP242"] = "AP214") -> dict[str, bytes]:
-    """``{relative path: bytes}`` for the requested formats (pure; nothing is written)."""
+                 step_schema: Literal["AP214", "AP242"] = "AP214",
+                 art: Articulation | None = None) -> dict[str, bytes]:
+    """``{relative path: bytes}`` for the requested formats (pure; nothing is written); ``art``
+    is the articulation the USD, URDF and MJCF files are written from (default
+    :func:`articulate` of ``model``, once for all three)."""
     fmts = parse_formats(formats)
     out: dict[str, bytes] = {}
     t = time.perf_counter()
     needs_tree = any(f in fmts for f in ("usd", "urdf", "mjcf"))
-    art = articulate(model) if needs_tree else None
+    art = art or (articulate(model) if needs_tree else None)
     masses = link_masses(model, art) if art is not None else None
     times = timings if timings is not None else {}
     times["articulate"] = time.perf_counter() - t
@@ -82,7 +85,8 @@ def bundle_bytes(model: CompiledModel, *, formats: str | Iterable[str] | None = 
 def write_bundle(model: CompiledModel, out_dir: str | os.PathLike[str], *,
                  formats: str | Iterable[str] | None = None,
                  timings: dict[str, float] | None = None,
-                 step_schema: Literal["AP214", "AP242"] = "AP214") -> dict[str, Path]:
+                 step_schema: Literal["AP214", "AP242"] = "AP214",
+                 art: Articulation | None = None) -> dict[str, Path]:
     """Write the requested formats (default: all) under ``out_dir``.
 
     Returns:
@@ -93,7 +97,7 @@ def write_bundle(model: CompiledModel, out_dir: str | os.PathLike[str], *,
         ValueError: an unknown format name.
     """
     root = Path(out_dir)
-    files = bundle_bytes(model, formats=formats, timings=timings, step_schema=step_schema)
+    files = bundle_bytes(model, formats=formats, timings=timings, step_schema=step_schema, art=art)
     written = {rel: write_atomic(root / rel, data) for rel, data in files.items()}
     log.info("wrote %d files to %s", len(written), root)
     return written

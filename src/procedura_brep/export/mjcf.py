@@ -10,8 +10,9 @@ pieces (group 3). Pairs of links whose collision pieces already overlap in the c
 excluded from collisions (MuJoCo collides convex hulls, which fill holes and bores; the exact
 rest-contact check is battery B3).
 
-Actuators: a position servo per limited revolute/prismatic joint and a velocity servo per
-continuous joint. A cylindrical joint is two joints on one body, both at its origin about/along
+Actuators follow each joint's ``drive`` in the :class:`~procedura_brep.articulation.Articulation`:
+a position servo per ``position``-driven DOF, a velocity servo per ``velocity``-driven one (the
+articulation gives continuous joints velocity drives). A cylindrical joint is two joints on one body, both at its origin about/along
 ``0 0 1``: ``<mate>__slide`` (slide) then ``<mate>__turn`` (hinge), each with its own servo. Position gains are scaled from the joint-space inertia so every servo has the
 same natural frequency (:data:`SERVO_HZ`); a velocity servo's gain is at least effort / velocity
 (full effort at stall), since a wheel carries the vehicle's load, not just its own inertia.
@@ -19,8 +20,8 @@ Every actuator's force is limited by the mate's effort. A spherical joint (MuJoC
 ``range="0 cone"``: only the upper value, the cone half-angle, counts) is held by three position
 servos ``<joint>__x|y|z`` whose transmission is the ball's rotation vector projected on the joint
 frame's x, y and z (``gear``), each within +-cone: like a swivel's lock, they hold the compiled
-pose against gravity up to the mate's effort. The root is free when the assembly has wheels
-(:func:`wheel_joints`), otherwise welded to the world.
+pose against gravity up to the mate's effort. The root is free or welded to the world as the
+articulation's ``base`` says (nothing here re-derives it).
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..articulation.mass import MassProps, link_masses
-from ..articulation.tree import Articulation, articulate
+from ..articulation.tree import Articulation, ArticulationError, articulate
 from ..program.model import CompiledModel
 from .meshes import collision_pieces, part_mesh, sim_mesh, stl_bytes, to_local_m
 
@@ -85,13 +86,6 @@ def lowest_z(model: CompiledModel, parts: list[str]) -> float:
     return float(min(part_mesh(model.part(n)).vertices[:, 2].min() for n in parts))
 
 
-def wheel_joints(model: CompiledModel, art: Articulation) -> list[str]:
-    """The wheel joints, found by evidence in the articulation
-    (:mod:`procedura_brep.articulation.wheels`): continuous, round about the axis, reaching the
-    floor. Their frames already carry one drive sign."""
-    return list(art.wheels)
-
-
 def _geoms(spec, body, model: CompiledModel, name: str, frame: np.ndarray,
            assets: dict[str, bytes]) -> None:
     import mujoco
@@ -129,11 +123,16 @@ def _dof_joint(spec, body, dof, kp: float) -> None:
     act = spec.add_actuator(name=dof.name, target=dof.name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
     if dof.type == "continuous":
         jt.limited = mujoco.mjtLimited.mjLIMITED_FALSE
-        act.set_to_velocity(kv=float(kp))
-        act.ctrlrange = [-dof.velocity, dof.velocity]
     else:
         jt.limited = mujoco.mjtLimited.mjLIMITED_TRUE
         jt.range = [float(dof.lower), float(dof.upper)]
+    if dof.drive == "velocity":
+        act.set_to_velocity(kv=float(kp))
+        act.ctrlrange = [-dof.velocity, dof.velocity]
+    else:
+        if dof.lower is None or dof.upper is None:
+            raise ArticulationError(f"joint {dof.name!r} has a position drive but no limits; "
+                                    f"give it limits or a velocity drive")
         m_jj = kp  # gains hold M_jj for position servos
         act.set_to_position(kp=float(m_jj * SERVO_OMEGA**2),
                             kv=float(2 * SERVO_ZETA * m_jj * SERVO_OMEGA))
@@ -142,8 +141,7 @@ def _dof_joint(spec, body, dof, kp: float) -> None:
     act.forcerange = [-dof.effort, dof.effort]
 
 
-def _build(model: CompiledModel, art: Articulation, masses: dict[str, MassProps],
-           free_root: bool, wheels: list[str], floor_z: float,
+def _build(model: CompiledModel, art: Articulation, masses: dict[str, MassProps], floor_z: float,
            gains: dict[str, float] | None, excluded: list[tuple[str, str]]) -> MjcfBuild:
     import mujoco
     spec = mujoco.MjSpec()
@@ -170,7 +168,7 @@ def _build(model: CompiledModel, art: Articulation, masses: dict[str, MassProps]
                                     quat=quat(rel[:3, :3]))
         bodies[lk.name] = body
         _inertial(body, masses[lk.name])
-        if lk.parent_joint is None and free_root:
+        if lk.parent_joint is None and art.free:
             body.add_freejoint(name=f"{lk.name}__free")
         for name in lk.parts:
             _geoms(spec, body, model, name, lk.frame, assets)
@@ -178,7 +176,7 @@ def _build(model: CompiledModel, art: Articulation, masses: dict[str, MassProps]
             continue
         j = art.joint(lk.parent_joint)
         kp = (gains or {}).get(j.name, 1.0)
-        if j.type == "spherical":
+        if j.type == "spherical":  # always a position hold (its drive)
             # a ball joint's range is "0 cone": only the upper value (the cone half-angle) counts
             body.add_joint(name=j.name, type=mujoco.mjtJoint.mjJNT_BALL, pos=[0, 0, 0],
                            range=[0.0, float(j.upper)], limited=mujoco.mjtLimited.mjLIMITED_TRUE)
@@ -197,21 +195,20 @@ def _build(model: CompiledModel, art: Articulation, masses: dict[str, MassProps]
     for a, b in excluded:
         spec.add_exclude(bodyname1=a, bodyname2=b)
     spec.assets = dict(assets)
-    return MjcfBuild(spec, assets, free_root, wheels, floor_z, list(excluded))
+    return MjcfBuild(spec, assets, art.free, list(art.wheels), floor_z, list(excluded))
 
 
 def build_mjcf(model: CompiledModel, *, art: Articulation | None = None,
-               masses: dict[str, MassProps] | None = None,
-               free_root: bool | None = None) -> MjcfBuild:
-    """The scene for ``model``: a first compile measures joint-space inertia (for servo gains) and
-    hull overlaps at rest (for collision excludes); the second is the result."""
+               masses: dict[str, MassProps] | None = None) -> MjcfBuild:
+    """The scene for ``model`` and its articulation ``art`` (default :func:`articulate`): a first
+    compile measures joint-space inertia (for servo gains) and hull overlaps at rest (for
+    collision excludes); the second is the result. Base, wheels and drives are ``art``'s
+    (``art.welded()`` gives the battery's welded sweep scene)."""
     import mujoco
     art = art or articulate(model)
     masses = masses or link_masses(model, art)
-    wheels = wheel_joints(model, art)
-    free = bool(wheels) if free_root is None else free_root
     floor_z = lowest_z(model, [p.name for p in model.parts]) / 1000.0
-    first = _build(model, art, masses, free, wheels, floor_z, None, [])
+    first = _build(model, art, masses, floor_z, None, [])
     m = first.spec.compile()
     d = mujoco.MjData(m)
     mujoco.mj_forward(m, d)
@@ -227,7 +224,7 @@ def build_mjcf(model: CompiledModel, *, art: Articulation | None = None,
         for jd in j.dofs():
             dof = int(m.jnt_dofadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, jd.name)])
             mjj = float(mass_matrix[dof, dof])
-            if jd.type == "continuous":  # velocity servo: stall torque = effort at full speed
+            if jd.drive == "velocity":  # velocity servo: stall torque = effort at full speed
                 gains[jd.name] = max(2 * SERVO_ZETA * mjj * SERVO_OMEGA,
                                      jd.effort / max(jd.velocity, MIN_VELOCITY))
             else:
@@ -241,7 +238,7 @@ def build_mjcf(model: CompiledModel, *, art: Articulation | None = None,
         excluded.add(tuple(sorted((n1, n2))))  # type: ignore[arg-type]
     if excluded:
         log.info("excluding hull contacts at rest: %s", sorted(excluded))
-    return _build(model, art, masses, free, wheels, floor_z, gains, sorted(excluded))
+    return _build(model, art, masses, floor_z, gains, sorted(excluded))
 
 
 def mjcf_files(model: CompiledModel, *, art: Articulation | None = None,

@@ -13,13 +13,15 @@ Layout (flat links, as UsdPhysics expects for articulations)::
                                   about X (the other four DOF locked by LimitAPI low > high),
                                   with transX and rotX drives
       /joints/<root link>__world  FixedJoint (body1 = root link, body0 empty = world), only when
-                                  the assembly has no wheels (:func:`.mjcf.wheel_joints`): the
+                                  the articulation's base is ``welded``: the
                                   same fixed base as ``model.xml``; the ArticulationRootAPI on
                                   its ancestor ``/<model>`` makes it a fixed-base articulation
 
 USD joint axes can only be X, Y or Z, so each joint frame is the mate frame rotated so that its
 +X is the mate's +Z (``localRot0/1``, :data:`Z_TO_X`); the axis is ``"X"``. Revolute limits are
-in degrees, prismatic in metres; every driven joint has a DriveAPI (angular or linear).
+in degrees, prismatic in metres; every driven joint has a DriveAPI (angular or linear) of the kind
+its ``drive`` says: ``position`` (stiffness, target position 0) or ``velocity`` (damping only,
+target velocity 0).
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ from ..articulation.tree import Articulation, articulate
 from ..materials import Material, get
 from ..program.model import CompiledModel
 from .meshes import collision_pieces, part_mesh, to_local_m
-from .mjcf import quat, wheel_joints
+from .mjcf import quat
 
 #: Rotation taking the joint's X axis onto the mate frame's Z axis (R_y(-90 deg)).
 Z_TO_X = np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])
@@ -116,7 +118,7 @@ def usd_stage(model: CompiledModel, *, art: Articulation | None = None,
                 UsdPhysics.CollisionAPI.Apply(c.GetPrim())
                 UsdPhysics.MeshCollisionAPI.Apply(c.GetPrim()).CreateApproximationAttr("convexHull")
     UsdGeom.Scope.Define(stage, f"{root}/joints")
-    if not wheel_joints(model, art):  # fixed base, as model.xml welds the root
+    if not art.free:  # a welded base, as model.xml welds the root
         fixed = UsdPhysics.FixedJoint.Define(stage, f"{root}/joints/{art.root.name}__world")
         fixed.CreateBody1Rel().SetTargets([f"{root}/{art.root.name}"])
         # body0 empty = the world; the joint sits at the root link's origin, whose world pose
@@ -160,7 +162,7 @@ def usd_stage(model: CompiledModel, *, art: Articulation | None = None,
                 drive.CreateTypeAttr("force")
                 drive.CreateMaxForceAttr(float(dof.effort))
                 drive.CreateDampingAttr(float(dof.effort * DRIVE_DAMPING_PER_EFFORT))
-                if dof.type == "continuous":
+                if dof.drive == "velocity":
                     drive.CreateTargetVelocityAttr(0.0)
                 else:
                     drive.CreateStiffnessAttr(float(dof.effort * DRIVE_STIFFNESS_PER_EFFORT))
@@ -170,7 +172,7 @@ def usd_stage(model: CompiledModel, *, art: Articulation | None = None,
             drive = UsdPhysics.DriveAPI.Apply(jp.GetPrim(), kind)
             drive.CreateTypeAttr("force")
             drive.CreateMaxForceAttr(float(j.effort))
-            if j.type == "continuous":
+            if j.drive == "velocity":
                 drive.CreateDampingAttr(float(j.effort * DRIVE_DAMPING_PER_EFFORT))
                 drive.CreateTargetVelocityAttr(0.0)
             else:

@@ -117,12 +117,16 @@ class Bundle:
     Attributes:
         root: the folder they are in.
         files: relative path -> path, ``mates.json`` included.
-        timings: seconds per stage (``export_<format>_s``, ``export_s``, ``evidence_s``).
+        timings: seconds per stage (``export_<format>_s``, ``export_s``, ``evidence_s``,
+            ``articulate_s``).
+        art: the articulation the USD, URDF and MJCF were written from (the battery takes the
+            same one); None when none of them was written.
     """
 
     root: Path
     files: dict[str, Path] = field(default_factory=dict)
     timings: dict[str, float] = field(default_factory=dict)
+    art: Any = None
 
 
 def export(model: CompiledModel, root: Path, *, formats: tuple[str, ...] | None = None,
@@ -146,9 +150,16 @@ def export(model: CompiledModel, root: Path, *, formats: tuple[str, ...] | None 
     from ..export.records import mates_json
     fmts = parse_formats(formats)
     timings: dict[str, float] = {}
+    art = None  # built once: the exporters and then the battery take the same articulation
+    if {"usd", "urdf", "mjcf"} & set(fmts):
+        from ..articulation import articulate
+        t = time.perf_counter()
+        art = articulate(model)
+        timings["articulate_s"] = time.perf_counter() - t
     t = time.perf_counter()
     per: dict[str, float] = {}
-    written = write_bundle(model, root, formats=fmts, timings=per, step_schema=step_schema)
+    written = write_bundle(model, root, formats=fmts, timings=per, step_schema=step_schema,
+                           art=art)
     timings.update({f"export_{k}_s": v for k, v in per.items()})
     timings["export_s"] = time.perf_counter() - t
     ev = None
@@ -160,7 +171,7 @@ def export(model: CompiledModel, root: Path, *, formats: tuple[str, ...] | None 
         ev = mates_evidence(model)
         timings["evidence_s"] = time.perf_counter() - t
     written["mates.json"] = write_atomic(root / "mates.json", dump_json(mates_json(model, ev)))
-    return Bundle(root, written, timings)
+    return Bundle(root, written, timings, art)
 
 
 @dataclass
@@ -200,7 +211,9 @@ def simulate(model: CompiledModel, bundle: Bundle | Path | None = None, *,
     root = bundle.root if isinstance(bundle, Bundle) else bundle
     t = time.perf_counter()
     draw = frames and not _gl_in_use()
-    report = run_battery(model, out_dir=root, frames=draw, exported=root is not None).as_dict()
+    art = bundle.art if isinstance(bundle, Bundle) else None
+    report = run_battery(model, out_dir=root, frames=draw, exported=root is not None,
+                         art=art).as_dict()
     if frames and not draw:
         report.setdefault("notes", []).append(
             "no failure frames: this process inherited a GL context, which a forked child "

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..articulation import articulate, link_masses
+from ..articulation import Articulation, articulate, link_masses
 from ..config import TOL
 from ..findings import Finding
 from ..program.model import CompiledModel
@@ -43,7 +43,8 @@ TEMP_PREFIX = "procedura-battery-"
 NEEDS: dict[str, str] = {"urdf": "urdf", "usd": "model.usda", "mjcf": "model.xml"}
 
 
-def _load(source: CompiledModel | str | Path, out_dir: Path | None, exported: bool = False
+def _load(source: CompiledModel | str | Path, out_dir: Path | None, exported: bool = False,
+          art: Articulation | None = None
           ) -> tuple[CompiledModel, Path, bool]:
     """``(model, bundle root, whether the root is a temp dir this call created)``."""
     if isinstance(source, CompiledModel):
@@ -54,7 +55,7 @@ def _load(source: CompiledModel | str | Path, out_dir: Path | None, exported: bo
                         if not (exported and not temp and (root / rel).exists()))
         try:
             if missing:
-                write_bundle(source, root, formats=missing)
+                write_bundle(source, root, formats=missing, art=art)
         except BaseException:
             if temp:
                 shutil.rmtree(root, ignore_errors=True)
@@ -64,7 +65,7 @@ def _load(source: CompiledModel | str | Path, out_dir: Path | None, exported: bo
     if path.is_file():  # a program file: compile, export next to out_dir
         from ..program import compile_source
         model = compile_source(path.read_text(), name=program_name(path))
-        return _load(model, out_dir)
+        return _load(model, out_dir, art=art)
     program = path / "program.py"
     if not program.exists():
         raise FileNotFoundError(f"{path} has no program.py; pass a bundle directory written by "
@@ -73,7 +74,7 @@ def _load(source: CompiledModel | str | Path, out_dir: Path | None, exported: bo
     model = compile_source(program.read_text(), name=program_name(program))
     if not (path / "model.xml").exists():
         from ..export.bundle import write_bundle
-        write_bundle(model, path, formats=("urdf", "usd", "mjcf"))
+        write_bundle(model, path, formats=("urdf", "usd", "mjcf"), art=art)
     return model, path, False
 
 
@@ -181,7 +182,7 @@ def check_b3(model: CompiledModel, art) -> CheckResult:
 
 def run_battery(source: CompiledModel | str | Path, *, out_dir: str | Path | None = None,
                 checks: Iterable[str] | None = None, frames: bool = True,
-                exported: bool = False) -> BatteryReport:
+                exported: bool = False, art: Articulation | None = None) -> BatteryReport:
     """Run the battery; never raises for a failing model (each check reports instead).
 
     Args:
@@ -194,11 +195,13 @@ def run_battery(source: CompiledModel | str | Path, *, out_dir: str | Path | Non
         exported: ``source`` is a CompiledModel whose bundle this process just wrote to
             ``out_dir``: check those files (only a format the battery needs and that is not
             there is written).
+        art: the articulation the bundle was exported with (default: :func:`articulate` of
+            the model); every check reads links, joints, wheels and the base from it.
     """
     wanted = tuple(c for c in ALL_CHECKS if checks is None or c in set(checks))
-    model, root, temp = _load(source, Path(out_dir) if out_dir else None, exported)
+    model, root, temp = _load(source, Path(out_dir) if out_dir else None, exported, art)
     try:
-        return _run(model, root, wanted, frames and not temp, temp)
+        return _run(model, root, wanted, frames and not temp, temp, art)
     finally:
         if temp:
             shutil.rmtree(root, ignore_errors=True)
@@ -231,11 +234,11 @@ def run_bundle(model: CompiledModel, root: str | Path, *, checks: Iterable[str] 
 
 
 def _run(model: CompiledModel, root: Path, wanted: tuple[str, ...], frames: bool,
-         temp: bool) -> BatteryReport:
+         temp: bool, art: Articulation | None = None) -> BatteryReport:
     """The checks of :func:`run_battery` over the bundle at ``root``."""
     import mujoco
-    from ..export.mjcf import build_mjcf, wheel_joints
-    art = articulate(model)
+    from ..export.mjcf import build_mjcf
+    art = art or articulate(model)
     masses = link_masses(model, art)
     report = BatteryReport([])
     if temp:
@@ -265,10 +268,10 @@ def _run(model: CompiledModel, root: Path, wanted: tuple[str, ...], frames: bool
     run("B1", lambda: check_b1(m_file, art), m_file)
     welded = None
     if "B2" in wanted:
-        welded = build_mjcf(model, art=art, masses=masses, free_root=False).spec.compile()
+        welded = build_mjcf(model, art=art.welded(), masses=masses).spec.compile()
     run("B2", lambda: check_b2(model, art, welded), welded)
     run("B3", lambda: check_b3(model, art))
-    wheels = wheel_joints(model, art)
+    wheels = list(art.wheels)
     floor_z = float(m_file.geom("floor").pos[2])
     run("B4", lambda: check_b4(m_file, art, wheels, floor_z), m_file)
     run("B5", lambda: check_b5(art, masses, root / "urdf"))

@@ -144,7 +144,7 @@ def sweep_joint(m, art: Articulation, name: str) -> dict:
     d = mujoco.MjData(m)
     dt = m.opt.timestep
     traj, qs, sep = [], [], 0.0
-    if j.type == "continuous":
+    if j.drive == "velocity":  # a speed servo (the articulation's drive): spin it
         v = min(SPIN_FRACTION * j.velocity, 2 * math.pi)
         steps = int(1.0 / dt)
         for k in range(steps):
