@@ -27,6 +27,7 @@ from typing import Any, Protocol
 
 from ..articulation import Articulation, ArticulationError, articulate, mates_evidence
 from ..errors import EditError, ProceduraError
+from ..findings import blocking
 from ..llm import Image, Message
 from ..mates import TYPES
 from ..paths import write_atomic
@@ -69,7 +70,7 @@ class FixerError(ProceduraError):
 def _errors(model: CompiledModel, source: str) -> set[tuple[str, str | None, str | None]]:
     from ..gates import check_model
     report = check_model(model, source)
-    return {(f.code, f.part, f.mate) for f in report.findings if f.severity == "error"}
+    return {(f.code, f.part, f.mate) for f in blocking(report.findings)}
 
 
 class ArticulationStage:
@@ -100,7 +101,7 @@ class ArticulationStage:
         errs = _errors(model, after)
         new = sorted(errs - self._gates[before], key=str)
         if new or not model.parts:
-            bad = [f for f in model.findings if f.severity == "error"][:3]
+            bad = blocking(model.findings)[:3]
             text = "; ".join(f.message for f in bad) or ", ".join(f"{c} ({p or m})" for c, p, m in new[:3])
             return None, f"it adds gate errors: {text}"
         try:
