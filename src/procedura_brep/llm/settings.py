@@ -70,22 +70,29 @@ def _read_config(path: Path) -> dict:
     return data
 
 
+def _resolve(value: str | None, flag: str, env_var: str, key: str,
+             base_url: str | None = None) -> ModelSetting:
+    """``value`` (from ``flag``), else ``$env_var``, else ``key`` in the config file."""
+    if value:
+        return ModelSetting(value, base_url, flag)
+    env = os.environ.get(env_var, "").strip()
+    if env:
+        return ModelSetting(env, base_url, env_var)
+    path = config_path()
+    data = _read_config(path)
+    if data.get(key):
+        return ModelSetting(data[key], base_url or (data.get("base_url") if key == "model" else None),
+                            str(path))
+    return ModelSetting(None, base_url, "none")
+
+
 def resolve_model(model: str | None = None, base_url: str | None = None) -> ModelSetting:
     """The model to use: the argument, else the environment, else the config file.
 
     Raises:
         ConfigError: the config file exists but cannot be read or has unknown keys.
     """
-    if model:
-        return ModelSetting(model, base_url, "--model")
-    env = os.environ.get(ENV_MODEL, "").strip()
-    if env:
-        return ModelSetting(env, base_url, ENV_MODEL)
-    path = config_path()
-    data = _read_config(path)
-    if data.get("model"):
-        return ModelSetting(data["model"], base_url or data.get("base_url"), str(path))
-    return ModelSetting(None, base_url, "none")
+    return _resolve(model, "--model", ENV_MODEL, "model", base_url)
 
 
 def resolve_image_model(model: str | None = None) -> ModelSetting:
@@ -95,13 +102,4 @@ def resolve_image_model(model: str | None = None) -> ModelSetting:
     Raises:
         ConfigError: the config file exists but cannot be read or has unknown keys.
     """
-    if model:
-        return ModelSetting(model, None, "--image-model")
-    env = os.environ.get(ENV_IMAGE_MODEL, "").strip()
-    if env:
-        return ModelSetting(env, None, ENV_IMAGE_MODEL)
-    path = config_path()
-    data = _read_config(path)
-    if data.get("image_model"):
-        return ModelSetting(data["image_model"], None, str(path))
-    return ModelSetting(None, None, "none")
+    return _resolve(model, "--image-model", ENV_IMAGE_MODEL, "image_model")
