@@ -104,7 +104,8 @@ def test_the_materials_reach_step_mtl_glb_and_usd(run):
     stage = Usd.Stage.Open(str(out / "model.usda"))
     root = stage.GetDefaultPrim().GetPath()
     sh = UsdShade.Shader(stage.GetPrimAtPath(f"{root}/Looks/chrome/PreviewSurface"))
-    assert tuple(sh.GetInput("diffuseColor").Get()) == pytest.approx(CHROME, abs=1e-6)
+    from procedura_brep.export.glb import srgb_to_linear  # UsdPreviewSurface colours are linear
+    assert tuple(sh.GetInput("diffuseColor").Get()) == pytest.approx(tuple(srgb_to_linear(CHROME)), abs=1e-6)
     assert sh.GetInput("roughness").Get() == pytest.approx(0.08)
 
 

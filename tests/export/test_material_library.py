@@ -89,7 +89,8 @@ def test_usd_preview_surface(bundle):
     from pxr import Usd, UsdShade
     stage = Usd.Stage.Open(str(bundle / "model.usda"))
     sh = UsdShade.Shader(stage.GetPrimAtPath("/lamp/Looks/teal_resin/PreviewSurface"))
-    assert tuple(sh.GetInput("diffuseColor").Get()) == pytest.approx(TEAL, abs=1e-6)
+    from procedura_brep.export.glb import srgb_to_linear  # UsdPreviewSurface colours are linear
+    assert tuple(sh.GetInput("diffuseColor").Get()) == pytest.approx(tuple(srgb_to_linear(TEAL)), abs=1e-6)
     assert sh.GetInput("roughness").Get() == pytest.approx(0.7)
 
 

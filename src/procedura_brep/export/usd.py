@@ -32,6 +32,7 @@ from ..articulation.mass import MassProps, link_masses
 from ..articulation.tree import Articulation, articulate
 from ..materials import Material, get
 from ..program.model import CompiledModel
+from .glb import srgb_to_linear
 from .meshes import collision_pieces, part_mesh, to_local_m
 from .mjcf import quat
 
@@ -72,7 +73,9 @@ def _material(stage, root: str, m: Material):
     mat = UsdShade.Material.Define(stage, f"{root}/Looks/{name}")
     sh = UsdShade.Shader.Define(stage, f"{root}/Looks/{name}/PreviewSurface")
     sh.CreateIdAttr("UsdPreviewSurface")
-    sh.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*m.rgb))
+    # UsdPreviewSurface colours are linear; the library's rgb is sRGB (as STEP and MTL take it)
+    linear = srgb_to_linear(m.rgb)
+    sh.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*map(float, linear)))
     sh.CreateInput("metallic", Sdf.ValueTypeNames.Float).Set(float(m.metalness))
     sh.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(float(m.roughness))
     mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), "surface")
