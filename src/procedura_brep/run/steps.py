@@ -72,13 +72,13 @@ def _warm_imports() -> None:
 
 
 @dataclass
-class GateVerdict:
-    """What the gates say about one model.
+class Verdict:
+    """What a step's checks say about one model: the JSON-safe report, its findings, the time.
 
     Attributes:
-        report: the gate report (:meth:`procedura_brep.gates.CheckReport.as_dict`, JSON-safe).
-        findings: every gate finding (errors, warnings, infos), compile findings included.
-        seconds: wall time of the gates.
+        report: the step's report (JSON-safe).
+        findings: its findings; :attr:`passed` applies the one policy to them.
+        seconds: wall time of the step.
     """
 
     report: dict[str, Any]
@@ -93,6 +93,13 @@ class GateVerdict:
     def errors(self) -> list[Finding]:
         """The findings that fail the model (:func:`procedura_brep.findings.blocking`)."""
         return blocking(self.findings)
+
+
+@dataclass
+class GateVerdict(Verdict):
+    """What the gates say about one model: ``report`` is the gate report
+    (:meth:`procedura_brep.gates.CheckReport.as_dict`); ``findings`` every gate finding (errors,
+    warnings, infos), compile findings included."""
 
 
 def gate(model: CompiledModel, source: str | None = None, *,
@@ -175,22 +182,10 @@ def export(model: CompiledModel, root: Path, *, formats: tuple[str, ...] | None 
 
 
 @dataclass
-class BatteryVerdict:
-    """What the MuJoCo battery says about one model.
-
-    Attributes:
-        report: the battery report (:meth:`procedura_brep.sim.BatteryReport.as_dict`).
-        findings: one error finding per failed check (:func:`procedura_brep.sim.battery.failures`).
-        seconds: wall time of the battery.
-    """
-
-    report: dict[str, Any]
-    findings: list[Finding]
-    seconds: float = 0.0
-
-    @property
-    def passed(self) -> bool:
-        return not failed(self.findings)
+class BatteryVerdict(Verdict):
+    """What the MuJoCo battery says about one model: ``report`` is the battery report
+    (:meth:`procedura_brep.sim.BatteryReport.as_dict`); ``findings`` one error finding per failed
+    check (:func:`procedura_brep.sim.battery.failures`)."""
 
 
 def simulate(model: CompiledModel, bundle: Bundle | Path | None = None, *,
