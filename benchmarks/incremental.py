@@ -18,9 +18,11 @@ t160/t40 <= 4.5. Run: ``python benchmarks/incremental.py [--repeat 3] [--sizes 1
 from __future__ import annotations
 
 import argparse
+import contextlib
 import statistics
 import tempfile
 import time
+from collections.abc import Iterator
 
 
 def program(n: int) -> str:
@@ -52,39 +54,35 @@ def splice_and_gate(worker, src: str, reply: str) -> float:
     return time.perf_counter() - t
 
 
-def measure(n: int, repeat: int) -> dict[str, float]:
-    """Median seconds of cold, add, splice and cold+1 at ``n`` parts."""
+@contextlib.contextmanager
+def booted_worker() -> Iterator[object]:
+    """A worker with its own empty part cache, booted (import cost is not the build's) and
+    with the parent's caches cleared; closed afterwards."""
     from procedura_brep.gates import clear_caches
     from procedura_brep.program.sandbox import Worker
+    with tempfile.TemporaryDirectory() as cache:
+        w = Worker(cache_dir=cache)
+        try:
+            w.compile(program(2))
+            clear_caches()
+            yield w
+        finally:
+            w.close()
+
+
+def measure(n: int, repeat: int) -> dict[str, float]:
+    """Median seconds of cold, add, splice and cold+1 at ``n`` parts."""
     from procedura_brep.testing.programs import tower_reply
     runs: dict[str, list[float]] = {"cold": [], "add": [], "splice": [], "cold1": []}
     for _ in range(repeat):
-        with tempfile.TemporaryDirectory() as cache:
-            w = Worker(cache_dir=cache)
-            try:
-                w.compile(program(2))  # boot the worker (import cost is not the build's)
-                clear_caches()
-                runs["cold"].append(compile_and_gate(w, program(n)))
-                runs["add"].append(compile_and_gate(w, program(n + 1)))
-            finally:
-                w.close()
-        with tempfile.TemporaryDirectory() as cache:
-            w = Worker(cache_dir=cache)
-            try:
-                w.compile(program(2))
-                clear_caches()
-                runs["cold1"].append(compile_and_gate(w, program(n + 1)))
-            finally:
-                w.close()
-        with tempfile.TemporaryDirectory() as cache:
-            w = Worker(cache_dir=cache)
-            try:
-                w.compile(program(2))
-                clear_caches()
-                compile_and_gate(w, program(n))  # the k parts built: warm part and gate caches
-                runs["splice"].append(splice_and_gate(w, program(n), tower_reply(n)))
-            finally:
-                w.close()
+        with booted_worker() as w:
+            runs["cold"].append(compile_and_gate(w, program(n)))
+            runs["add"].append(compile_and_gate(w, program(n + 1)))
+        with booted_worker() as w:
+            runs["cold1"].append(compile_and_gate(w, program(n + 1)))
+        with booted_worker() as w:
+            compile_and_gate(w, program(n))  # the k parts built: warm part and gate caches
+            runs["splice"].append(splice_and_gate(w, program(n), tower_reply(n)))
     return {k: statistics.median(v) for k, v in runs.items()}
 
 
