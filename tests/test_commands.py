@@ -120,3 +120,22 @@ def test_an_error_the_child_raises_on_purpose_keeps_its_exit_code(tmp_path):
     assert "Traceback" not in res.output
     errors = [ln for ln in res.stderr.splitlines() if not ln.startswith("Fontconfig")]
     assert res.exit_code == 2 and len(errors) == 1 and "nosuch" in errors[0], (res.exit_code, errors)
+
+
+def test_simulate_of_a_6m_sphere_arm_ends_with_the_battery_verdict(tmp_path):
+    """Issue 10's last hostile case: ``Sphere(3000)`` as the lamp's arm. ``simulate`` ran past
+    300 s (the B2 sweep's surface cover had 5e7 cells at the fixed 1.5 mm); now the cover is
+    sized to the part and each joint's exact booleans are budgeted, so it ends with the
+    battery's findings (the arm swallows the base: B3), exit 1, within the bound."""
+    prog = tmp_path / "hostile.py"
+    prog.write_text(_in_arm("return Sphere(3000)"))
+    t = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-c", "from procedura_brep.cli import main; main()",
+                           "simulate", str(prog), "--json", "-q"],
+                          capture_output=True, text=True, timeout=120)
+    seconds = time.perf_counter() - t
+    assert "Traceback" not in proc.stderr, proc.stderr[-2000:]
+    assert proc.returncode == 1, (proc.returncode, proc.stderr[-2000:])
+    checks = {c["id"]: c for c in json.loads(proc.stdout)["checks"]}
+    assert not checks["B3"]["passed"] and "'arm'" in checks["B3"]["message"]
+    assert seconds < 120

@@ -83,6 +83,14 @@ class Tolerances:
             stepped over).
         sweep_cell_mm: battery B2: side of the surface cells whose sphere cover prefilters the
             exact checks (smaller: fewer booleans near contacts, more cells to query).
+        sweep_max_cells: battery B2: a part's cover has at most about this many cells: a part
+            whose surface area needs more at ``sweep_cell_mm`` gets cells of side
+            ``sqrt(area / sweep_max_cells)`` (a coarser cover, still conservative: more poses
+            reach the exact check). A 6 m sphere needed 5e7 cells at 1.5 mm.
+        sweep_max_booleans: battery B2: the most exact booleans one joint's sweep may run. A
+            sweep that needs more (a part that overlaps its neighbours at every pose) stops and
+            B2 fails with a finding naming the joint and the pose reached, instead of running
+            for minutes. The recorded 31-part drill press needs at most 235 for one joint.
         wheel_axis_deg: articulation: a wheel's symmetry axis is parallel to its joint axis
             within this angle.
         wheel_centre_mm: articulation: a wheel's symmetry axis passes this close to its joint
@@ -142,6 +150,8 @@ class Tolerances:
     sweep_box_slack_mm: float = 0.01
     sweep_step_mm: float = 1.0
     sweep_cell_mm: float = 1.5
+    sweep_max_cells: int = 200_000
+    sweep_max_booleans: int = 1500
     nonconvex_ratio: float = 1.3
     normal_crease_deg: float = 30.0
     wheel_axis_deg: float = 1.0

@@ -188,3 +188,37 @@ def test_every_part_of_the_moved_link_meets_every_part_of_the_parent_link(worker
     bare = _compile("fin", fin_program(21.9, fin_z=33.0), worker)
     art = articulate(bare)
     assert SweepScene(bare, art).sweep(art.joint("blade_pivot")).depth <= TOL.sim_penetration_mm
+
+
+def test_a_sweep_that_spends_its_boolean_budget_stops_and_says_where(fins, monkeypatch):
+    """A joint whose sweep needs more exact booleans than ``TOL.sweep_max_booleans`` stops at
+    the budget (issue 10: a part overlapping its neighbours at every pose ran for minutes) and
+    names the pair and the pose it reached; under the budget the same sweep is unchanged."""
+    import dataclasses
+
+    from procedura_brep.sim import sweep
+    model = fins[FIN_ANGLES[1]]
+    art = articulate(model)
+    full = SweepScene(model, art).sweep(art.joint("blade_pivot"))
+    assert full.booleans > 2 and not full.stopped
+    monkeypatch.setattr(sweep, "TOL", dataclasses.replace(TOL, sweep_max_booleans=full.booleans - 1))
+    cut = SweepScene(model, art).sweep(art.joint("blade_pivot"))
+    assert cut.booleans == full.booleans - 1
+    assert cut.stopped.startswith("'blade' against '") and " at " in cut.stopped, cut.stopped
+    assert cut.as_dict()["stopped_at_budget"] == cut.stopped
+    monkeypatch.setattr(sweep, "TOL", dataclasses.replace(TOL, sweep_max_booleans=full.booleans))
+    same = SweepScene(model, art).sweep(art.joint("blade_pivot"))
+    assert not same.stopped and same.depth == full.depth and same.pair == full.pair
+
+
+def test_a_stopped_sweep_fails_b2_naming_the_joint(fins, monkeypatch, tmp_path):
+    import dataclasses
+
+    from procedura_brep.sim import battery, sweep
+    small = dataclasses.replace(TOL, sweep_max_booleans=1)
+    monkeypatch.setattr(sweep, "TOL", small)
+    monkeypatch.setattr(battery, "TOL", small)
+    b2 = run_battery(fins[FIN_ANGLES[1]], out_dir=tmp_path, checks=["B2"], frames=False).check("B2")
+    assert not b2.passed
+    assert "joint 'blade_pivot': the exact sweep stopped at its budget of 1 booleans" in b2.message
+    assert b2.measured["joints"]["blade_pivot"]["stopped_at_budget"]

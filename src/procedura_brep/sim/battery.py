@@ -112,6 +112,8 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
                             "worst_tilt_deg": float(np.degrees(hit.value[1])) if hit.value else None,
                             **hit.as_dict()}
             worst_pen = max(worst_pen, hit.depth)
+            if hit.stopped:
+                problems.append(_stopped(j.name, hit))
             if hit.depth > TOL.sim_penetration_mm:
                 problems.append(f"spherical joint {j.name!r} drives {hit.pair[0]!r} {hit.depth:.3g} mm "
                                 f"into {hit.pair[1]!r} at {hit.at} (limit {TOL.sim_penetration_mm} mm)")
@@ -130,6 +132,9 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
             rows.update({n: {"reach": x["reach"], "qmin": x["qmin"], "qmax": x["qmax"],
                              "separation_m": x["separation_m"]} for n, x in reached.items()})
         bad = False
+        if hit.stopped:
+            problems.append(_stopped(j.name, hit))
+            bad = True
         if pen > TOL.sim_penetration_mm:
             problems.append(f"joint {j.name!r} drives {hit.pair[0]!r} {pen:.3g} mm into "
                             f"{hit.pair[1]!r} at {hit.at} (limit {TOL.sim_penetration_mm} mm)")
@@ -156,6 +161,14 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
               "max_separation_m": TOL.sweep_separation_m}
     return CheckResult("B2", "joint sweeps", not problems, measured, limits,
                        "; ".join(problems) or f"{len(rows)} joints swept"), worst_traj
+
+
+def _stopped(joint: str, hit) -> str:
+    """The B2 problem of a sweep stopped at its boolean budget."""
+    return (f"joint {joint!r}: the exact sweep stopped at its budget of {TOL.sweep_max_booleans} "
+            f"booleans ({hit.stopped}): its moved parts overlap the fixed ones at almost every "
+            f"pose, so the range was not checked; separate the parts (or shrink the part) and "
+            f"run the battery again")
 
 
 def check_b3(model: CompiledModel, art) -> CheckResult:

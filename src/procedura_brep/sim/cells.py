@@ -1,10 +1,12 @@
 """A conservative sphere cover of a part's surface, for the sweep's near-contact prefilter.
 
 Points are laid on every triangle of the part's shipped tessellation (world coordinates, rest
-pose) no further apart than ``TOL.sweep_cell_mm / 2`` and binned into cubic cells of side
-``TOL.sweep_cell_mm``. Each occupied cell becomes one sphere about the cell centre whose radius
-covers the cell (half its diagonal), the point spacing and the tessellation's deviation from the
-exact surface (``TOL.mesh_linear_mm``), so every point of the exact surface lies inside a sphere.
+pose; the size rule's deflection, :func:`procedura_brep.kernel.mesh_deflection`) no further
+apart than half a cell and binned into cubic cells of side ``TOL.sweep_cell_mm``, or coarser for a
+part whose surface would need more than ``TOL.sweep_max_cells`` cells. Each occupied cell becomes
+one sphere about the cell centre whose radius covers the cell (half its diagonal), the point
+spacing and the tessellation's deviation from the exact surface, so every point of the exact
+surface lies inside a sphere.
 
 For a moved part, the faces whose rotation about the joint axis sweeps no volume are left out:
 planes normal to the axis (they slide in their own plane, whatever their outline), and
@@ -20,6 +22,7 @@ step can only reach through a pose where the surfaces met).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,7 +32,8 @@ from ..config import TOL
 #: Two directions are parallel (and a point is on an axis) within these tolerances.
 PARALLEL_EPS = 1e-9
 ON_AXIS_MM = 1e-6
-#: At most this many subdivisions of one triangle edge (bounds the points of a huge face).
+#: At most this many subdivisions of one triangle edge (bounds the points of a huge face: a
+#: part whose longest edge needs more gets coarser cells, :func:`cell_side`).
 MAX_SUBDIV = 400
 
 
@@ -141,15 +145,32 @@ def _dir(d) -> tuple[float, float, float]:
     return (d.X(), d.Y(), d.Z())
 
 
+def cell_side(tris: np.ndarray, cell: float = TOL.sweep_cell_mm, max_cells: int | None = None) -> float:
+    """The cell side for triangles (n, 3, 3): ``cell``, or coarser so that the surface area
+    needs at most about ``max_cells`` cells and no triangle edge needs more than
+    :data:`MAX_SUBDIV` points at half a cell apart (so the spacing bound always holds)."""
+    if not len(tris):
+        return cell
+    max_cells = TOL.sweep_max_cells if max_cells is None else max_cells
+    area = 0.5 * float(np.linalg.norm(np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]),
+                                      axis=1).sum())
+    edge = float(np.linalg.norm(tris - np.roll(tris, 1, axis=1), axis=2).max())
+    if not (np.isfinite(area) and np.isfinite(edge)):
+        return cell
+    return max(cell, math.sqrt(area / max_cells), 2.0 * edge / MAX_SUBDIV)
+
+
 def cover(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
-          cell: float = TOL.sweep_cell_mm) -> Cover:
+          cell: float = TOL.sweep_cell_mm, max_cells: int | None = None) -> Cover:
     """The sphere cover of the located, meshed ``shape``; with ``axis`` = (point, unit
-    direction), the faces invariant under rotation about it are left out."""
-    from ..kernel import _ocp
+    direction), the faces invariant under rotation about it are left out. ``cell`` is the
+    finest cell side; :func:`cell_side` widens it to keep about ``max_cells`` (default
+    ``TOL.sweep_max_cells``) cells."""
+    from ..kernel import _ocp, mesh_deflection
     o = _ocp()
-    # the shipped tessellation's settings (a no-op where the shape is already meshed)
-    o["BRepMesh"].BRepMesh_IncrementalMesh(shape, TOL.mesh_linear_mm, False, TOL.mesh_angular_rad, False)
-    h = cell / 2.0
+    # the shipped tessellation's settings (a no-op where the shape is already meshed so)
+    linear = mesh_deflection(shape)
+    o["BRepMesh"].BRepMesh_IncrementalMesh(shape, linear, False, TOL.mesh_angular_rad, False)
     tris = []
     exp = o["TopExp"].TopExp_Explorer(shape, o["TopAbs"].TopAbs_FACE)
     while exp.More():
@@ -158,10 +179,13 @@ def cover(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
         if axis is not None and invariant_under_rotation(face, axis[0], axis[1], o):
             continue
         tris.append(_triangles(face, o))
-    keys = _cells(np.vstack(tris), h, cell) if tris else np.zeros((0, 3), dtype=np.int64)
+    tris_all = np.vstack(tris) if tris else np.zeros((0, 3, 3))
+    cell = cell_side(tris_all, cell, max_cells)
+    h = cell / 2.0
+    keys = _cells(tris_all, h, cell)
     centres = (keys + 0.5) * cell
-    radius = cell * np.sqrt(3.0) / 2.0 + h + TOL.mesh_linear_mm
+    radius = cell * np.sqrt(3.0) / 2.0 + h + linear
     return Cover(np.asarray(centres, float), float(radius))
 
 
-__all__ = ["Cover", "cover", "invariant_under_rotation"]
+__all__ = ["Cover", "cell_side", "cover", "invariant_under_rotation"]

@@ -92,12 +92,25 @@ class SweepHit:
     booleans: int = 0
     step_mm: float = 0.0
     skipped_rest: list[tuple[str, str]] = field(default_factory=list)
+    #: Where the sweep stopped because it spent ``TOL.sweep_max_booleans`` ("" if it did not):
+    #: "<moved> against <fixed> at <pose>". A stopped sweep is unfinished: B2 fails on it.
+    stopped: str = ""
 
     def as_dict(self) -> dict:
         return {"new_penetration_mm": self.depth, "pair": list(self.pair) if self.pair else None,
                 "at": self.at, "samples": self.samples, "booleans": self.booleans,
                 "max_step_mm": self.step_mm,
-                "rest_interfering_pairs": [list(p) for p in self.skipped_rest]}
+                "rest_interfering_pairs": [list(p) for p in self.skipped_rest],
+                "stopped_at_budget": self.stopped or None}
+
+
+class _BudgetSpent(Exception):
+    """A joint's sweep reached ``TOL.sweep_max_booleans`` (internal: :meth:`SweepScene.sweep`
+    turns it into :attr:`SweepHit.stopped`)."""
+
+    def __init__(self, where: str) -> None:
+        super().__init__(where)
+        self.where = where
 
 
 def joint_values(joint: Joint, radius_mm: float, extra: tuple[float, ...] = ()) -> list[float]:
@@ -188,6 +201,14 @@ class SweepScene:
         self._extent: dict[tuple[str, bytes], tuple[float, float]] = {}
         self._cover: dict[tuple[str, bytes], tuple[Cover, cKDTree | None]] = {}
         self.booleans = 0
+        self._joint_start = 0  # self.booleans when the current joint's sweep began
+
+    def _spend(self, where) -> None:
+        """Count one exact boolean of the current joint's sweep; past the budget, stop the sweep
+        (``where`` is called for the message only then)."""
+        if self.booleans - self._joint_start >= TOL.sweep_max_booleans:
+            raise _BudgetSpent(where())
+        self.booleans += 1
 
     def cover(self, name: str, joint: Joint | None = None) -> tuple[Cover, cKDTree | None]:
         """The part's surface sphere cover at rest (world mm) and a KD-tree of its centres;
@@ -228,9 +249,9 @@ class SweepScene:
             self._extent[key] = (lo[2], hi[2])
         return self._extent[key]
 
-    def _overlap(self, a: str, ma: np.ndarray, b: str) -> Overlap:
+    def _overlap(self, a: str, ma: np.ndarray, b: str, where: str = "rest") -> Overlap:
         pa, pb = self.model.part(a), self.model.part(b)
-        self.booleans += 1
+        self._spend(lambda: f"{a!r} against {b!r} at {where}")
         return exact_overlap(a, kernel.located(pa.local_shape(), ma @ pa.placement), b, pb.shape())
 
     def rest(self, a: str, b: str) -> Overlap:
@@ -322,38 +343,40 @@ class SweepScene:
         return ca.centres[near], radius
 
     def sweep(self, joint: Joint, extra: tuple[float, ...] = ()) -> SweepHit:
-        """The deepest new exact interference over the joint's samples."""
+        """The deepest new exact interference over the joint's samples; a sweep that spends
+        ``TOL.sweep_max_booleans`` stops there (:attr:`SweepHit.stopped`)."""
         if joint.type == "spherical":
             return self._sweep_ball(joint)
         if joint.type == "cylindrical":
             return self._sweep_cylindrical(joint)
         hit = SweepHit(joint.name)
-        todo, hit.skipped_rest = self.pairs(joint)
-        start = self.booleans
-        eye = np.eye(4)
-        for a, b in todo:
-            cells, radius = self.orbit_cells(joint, a, b)
-            if not len(cells):
-                continue
-            n, worst = self._sweep_pair(joint, a, b, cells, extra)
-            hit.samples = max(hit.samples, n)
-            hit.step_mm = TOL.sweep_step_mm
-            if worst is not None and worst[0] > hit.depth:
-                hit.depth, hit.volume, q = worst
-                hit.pair, hit.at, hit.value = (a, b), label(joint, q), q
+        start = self._joint_start = self.booleans
+        todo: list[tuple[str, str]] = []
+        try:
+            todo, hit.skipped_rest = self.pairs(joint)
+            for a, b in todo:
+                cells, radius = self.orbit_cells(joint, a, b)
+                if not len(cells):
+                    continue
+                n, worst = self._sweep_pair(joint, a, b, cells, extra, hit)
+                hit.samples = max(hit.samples, n)
+                hit.step_mm = TOL.sweep_step_mm
+        except _BudgetSpent as spent:
+            hit.stopped = spent.where
         hit.booleans = self.booleans - start
         log.debug("sweep %s: %d samples max, %d pairs, %d booleans, worst %.3g mm", joint.name,
                   hit.samples, len(todo), hit.booleans, hit.depth)
         return hit
 
     def _sweep_pair(self, joint: Joint, a: str, b: str, cells: np.ndarray,
-                    extra: tuple[float, ...]) -> tuple[int, tuple[float, float, float] | None]:
+                    extra: tuple[float, ...], hit: SweepHit) -> tuple[int, tuple[float, float, float] | None]:
         """Conservative advancement along the range: at each pose every cell's gap to the fixed
         part's cover bounds how far its points may move before they can touch, so the next pose
         is the nearest at which some cell has moved its gap plus ``TOL.sweep_step_mm``, and never
         closer than ``sweep_step_mm`` at the largest lever arm. No point of a cell within reach of
         the fixed part moves more than ``sweep_step_mm`` between two poses. Returns (poses,
-        (new depth, volume, joint value) of the worst pose or None)."""
+        (new depth, volume, joint value) of the worst pose or None); the worst pose so far is
+        also recorded in ``hit`` as it is found, so a sweep stopped at its budget keeps it."""
         (ca, _), (cb, tb) = self.cover(a, joint), self.cover(b)
         inv = rigid_inverse(joint.frame)
         local = cells @ inv[:3, :3].T + inv[:3, 3]
@@ -385,10 +408,13 @@ class SweepScene:
                 if crops is None:
                     crops = self._crops(joint, a, b, local, rest,
                                         (min([lo, *outside]), max([hi, *outside])))
-                self.booleans += 1
+                self._spend(lambda: f"{a!r} against {b!r} at {label(joint, q)}")
                 o = exact_overlap(a, kernel.located(crops[0], m), b, crops[1])
                 if worst is None or o.depth - rest > worst[0]:
                     worst = (o.depth - rest, o.volume, q)
+                    if worst[0] > hit.depth:
+                        hit.depth, hit.volume = worst[0], worst[1]
+                        hit.pair, hit.at, hit.value = (a, b), label(joint, q), q
             return gap
 
         for q in outside:  # MuJoCo overshoots beyond the commanded range: one pose each
@@ -451,24 +477,29 @@ class SweepScene:
         worst = max(range(2), key=lambda k: hits[k].depth)
         out = dataclasses.replace(hits[worst], joint=joint.name, samples=sum(h.samples for h in hits),
                                   booleans=sum(h.booleans for h in hits),
-                                  step_mm=max(h.step_mm for h in hits))
+                                  step_mm=max(h.step_mm for h in hits),
+                                  stopped="; ".join(f"{dof}: {h.stopped}" for dof, h in
+                                                    zip(("slide", "turn"), hits) if h.stopped))
         if out.pair is not None:
             out.at = f"{('slide', 'turn')[worst]} {out.at}"
         return out
 
     def _sweep_ball(self, joint: Joint) -> SweepHit:
         hit = SweepHit(joint.name)
-        todo, hit.skipped_rest = self.pairs(joint)
-        start = self.booleans
-        for s in samples(joint):
-            hit.samples += 1
-            for a, b in todo:
-                if not _obb_overlap(self.obb(a, s.motion), self.obb(b, np.eye(4)), TOL.sweep_box_slack_mm):
-                    continue
-                o = self._overlap(a, s.motion, b)
-                new = o.depth - self.rest(a, b).depth
-                if new > hit.depth:
-                    hit.depth, hit.volume, hit.pair, hit.at, hit.value = new, o.volume, (a, b), s.label, s.value
+        start = self._joint_start = self.booleans
+        try:
+            todo, hit.skipped_rest = self.pairs(joint)
+            for s in samples(joint):
+                hit.samples += 1
+                for a, b in todo:
+                    if not _obb_overlap(self.obb(a, s.motion), self.obb(b, np.eye(4)), TOL.sweep_box_slack_mm):
+                        continue
+                    o = self._overlap(a, s.motion, b, s.label)
+                    new = o.depth - self.rest(a, b).depth
+                    if new > hit.depth:
+                        hit.depth, hit.volume, hit.pair, hit.at, hit.value = new, o.volume, (a, b), s.label, s.value
+        except _BudgetSpent as spent:
+            hit.stopped = spent.where
         hit.booleans = self.booleans - start
         return hit
 
