@@ -25,7 +25,7 @@ def test_box_sharp_length_and_dihedral():
 
 
 def test_filleted_box_has_no_sharp_edges():
-    from build123d import Axis, Box, fillet
+    from build123d import Box, fillet
     b = Box(100, 60, 10)
     b = fillet(b.edges(), radius=3)
     m = mesh_metrics(_one(b))

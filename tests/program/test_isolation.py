@@ -18,14 +18,12 @@ import socket
 import subprocess
 import sys
 import tempfile
-from dataclasses import asdict
 from pathlib import Path
 
 import pytest
 
-from procedura_brep.config import SANDBOX
 from procedura_brep.errors import CompileError
-from procedura_brep.program import isolation, worker
+from procedura_brep.program import isolation
 from procedura_brep.program.sandbox import CompileOptions, Worker, clean_env
 
 pytestmark = pytest.mark.skipif(platform.system() != "Linux", reason="Linux isolation layers")
