@@ -278,10 +278,14 @@ def _line_of(text: str, needle: str) -> int:
 
 
 def test_part_exception_shows_its_program_line(tmp_path):
+    """A part that raises is the program's fault: exit 2 from build, as from check (they
+    disagreed before: 1 and 2)."""
     bad = tmp_path / "bad.py"
     bad.write_text(LAMP.read_text().replace(ARM_BODY, "return [][3]"))
+    res = invoke("check", str(bad))
+    assert res.exit_code == 2 and "IndexError" in res.stderr, res.output
     res = invoke("build", str(bad), "-o", str(tmp_path / "o"), "--formats", "step")
-    line = _one_error_line(res, code=1)
+    line = _one_error_line(res, code=2)
     assert "part arm" in line and "IndexError" in line
     assert f"line {_line_of(bad.read_text(), 'return [][3]')}" in line
 
@@ -290,7 +294,7 @@ def test_more_errors_are_listed_with_verbose_and_in_json(tmp_path):
     bad = tmp_path / "bad.py"
     bad.write_text(TWO_BAD)
     res = invoke("build", str(bad), "-o", str(tmp_path / "o"), "--formats", "step")
-    assert "(+1 more" in _one_error_line(res, code=1) and "also:" not in res.stderr
+    assert "(+1 more" in _one_error_line(res, code=2) and "also:" not in res.stderr
     res = invoke("-v", "build", str(bad), "-o", str(tmp_path / "o"), "--formats", "step")
     also = [l for l in res.stderr.splitlines() if l.startswith("  also:")]
     assert len(also) == 1 and ("part arm" in also[0] or "part post" in also[0]), res.stderr
@@ -357,7 +361,7 @@ def test_escape_sequences_in_an_exception_are_stripped(tmp_path):
     bad.write_text(LAMP.read_text().replace(ARM_BODY, evil))
     assert evil in bad.read_text()
     res = invoke("build", str(bad), "-o", str(tmp_path / "o"), "--formats", "step")
-    line = _one_error_line(res, code=1)
+    line = _one_error_line(res, code=2)
     assert "built 3 parts" in line  # the text is shown, the escape sequences are not
     assert not any(c in res.output for c in "\x1b\r\x07\x9b")
     assert "ZXZpbA" not in line and "more characters]" in line

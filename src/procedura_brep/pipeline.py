@@ -60,8 +60,10 @@ class BuildResult:
 
     @property
     def exit_code(self) -> int:
-        """The process exit code for this build (:func:`procedura_brep.run.status.exit_code`)."""
-        return exit_code(self.status, compiled=self.compiled)
+        """The process exit code for this build (:func:`procedura_brep.run.status.exit_code`):
+        a program whose compile failed a part (an exception, a cap) is the user's input at
+        fault, 2, as for ``check``, ``render``, ``export`` and ``simulate``."""
+        return exit_code(self.status, compiled=self.compiled and self.model is not None and self.model.ok)
 
     @property
     def errors(self) -> list[Finding]:

@@ -116,6 +116,22 @@ def test_build_gates_before_it_exports(tmp_path, worker):
     assert list(res.report["timings"]).index("gates_s") < list(res.report["timings"]).index("export_s")
 
 
+@pytest.mark.skipif(not Path("/proc/self").exists(), reason="Linux isolation layers")
+def test_the_report_says_which_isolation_layers_the_compile_ran_under(tmp_path, worker):
+    """report.json carries the compile child's OS layers (issue 10: they were only in
+    ``doctor`` and the debug log), as the child logged them before any program code ran."""
+    import json
+
+    from procedura_brep.program.isolation import probe
+    res = build(LAMP, tmp_path / "run", formats=("step",), progress=_quiet)
+    line = json.loads((tmp_path / "run" / "report.json").read_text())["isolation"]
+    assert line == res.model.isolation and line.startswith("applied: ")
+    expected = probe()
+    for layer in expected.applied:
+        if layer != "own_uid":  # the worker's uid is not in the child's log
+            assert layer in line.split(";")[0], (layer, line)
+
+
 def test_report_is_laid_out_once():
     from procedura_brep.findings import Finding
     from procedura_brep.run.report import run_report

@@ -129,6 +129,9 @@ class CompiledModel:
     findings: list[Finding] = field(default_factory=list)
     timings: dict[str, float] = field(default_factory=dict)
     materials: dict[str, Material] = field(default_factory=default_library)
+    #: The OS isolation layers the compile child ran under, set by the parent from the child's
+    #: log (``applied: netns no_new_privs landlock seccomp; not applied: -``); "" when unknown.
+    isolation: str = ""
 
     def material_of(self, part: CompiledPart) -> Material:
         """The library entry of ``part``'s material (a MaterialError lists the library)."""

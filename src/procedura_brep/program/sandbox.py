@@ -192,6 +192,7 @@ class Worker:
                 log.debug("compile child isolation: %s", self.isolation)
                 model = _result(reply if isinstance(reply, dict) else {}, scratch, options.limits,
                                 name=options.name)
+                model.isolation = self.isolation
                 if options.cache and model.ok:
                     from .cache import store_model
                     store_model(self.cache_dir, model)

@@ -32,8 +32,9 @@ def run_report(status: Status, model: CompiledModel | None, findings: list[Findi
         complete: the build wrote every file it was asked for (``complete: true``).
 
     Returns:
-        ``status``, ``program``, ``findings``, ``timings``, the sections, ``parts`` and ``mates``
-        (when the model has parts) and ``complete`` (when true), in that order.
+        ``status``, ``program``, ``findings``, ``timings``, the sections, ``isolation`` (the
+        compile child's OS layers, when known), ``parts`` and ``mates`` (when the model has
+        parts) and ``complete`` (when true), in that order.
     """
     from ..export.records import mate_rows, part_rows
     report: dict[str, Any] = {
@@ -43,6 +44,8 @@ def run_report(status: Status, model: CompiledModel | None, findings: list[Findi
         "timings": {**(model.timings if model else {}), **timings},
         **(sections or {}),
     }
+    if model is not None and model.isolation:
+        report["isolation"] = model.isolation
     if model is not None and model.parts:
         try:
             report["parts"] = part_rows(model)
