@@ -210,3 +210,23 @@ def test_promotions_are_applied_or_refused_by_evidence_and_logged(tmp_path):
     art = articulate(host.tools.compile(new, "lamp"))
     assert [(j.name, j.type, j.drive) for j in art.joints] == [("post_foot", "continuous", "velocity")]
     assert (tmp_path / "history" / "001-articulation-post_foot.py").read_text() == new
+
+
+def test_a_run_resumed_at_finish_keeps_its_refine_and_articulation_reports(run, tmp_path):
+    """The stage reports live in state.json: a run killed after the articulation stage and
+    resumed at ``finish`` still reports both (before, report.json lost them)."""
+    import shutil
+    result, out, _ = run
+    first = json.loads((out / "report.json").read_text())
+    assert first["articulation"]["edits"] and first["refine"]
+    again = tmp_path / "again"
+    shutil.copytree(out, again)
+    state = json.loads((again / "state.json").read_text())
+    state["stage"] = "finish"  # as if killed before the finish built the run directory
+    (again / "state.json").write_text(json.dumps(state))
+    (again / "report.json").unlink()
+    resumed = generate_staged(None, again, model=f"replay:{TAPE}", resume=True)
+    assert resumed.status == result.status
+    report = json.loads((again / "report.json").read_text())
+    assert report["articulation"] == first["articulation"]
+    assert report["refine"] == first["refine"]

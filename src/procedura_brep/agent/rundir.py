@@ -40,6 +40,8 @@ class RunState:
     source: str = ""
     per_part_s: dict[str, float] = field(default_factory=dict)
     materials: dict[str, Any] = field(default_factory=dict)  # the materials stage's report
+    refine: dict[str, Any] = field(default_factory=dict)  # the refine stage's report
+    articulation: dict[str, Any] = field(default_factory=dict)  # the articulation stage's report
 
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)

@@ -105,9 +105,10 @@ class StagedRun:
         self.prompt = self.state.prompt
         self.name = "model"
         self._model: CompiledModel | None = None
-        self.refine_report: dict[str, Any] = {}
+        # the stage reports live in the state, so a run resumed after a stage still reports it
+        self.refine_report: dict[str, Any] = self.state.refine
         self.reference_info: dict[str, Any] = {"source": "file" if image else "none"}
-        self.articulation_report: dict[str, Any] = {}
+        self.articulation_report: dict[str, Any] = self.state.articulation
         self._prebuilt: tuple[str | None, Any] = (None, None)
 
     # model calls -----------------------------------------------------------------------------
@@ -359,6 +360,7 @@ class StagedRun:
                                             max_edits=self.options.max_edits,
                                             max_actions=self.options.max_actions,
                                             history_from=len(self.state.committed))
+        self.state.refine = self.refine_report = _plain(self.refine_report)
         if source != self.state.source:
             self.state.source = source
             self._model = None
@@ -379,7 +381,7 @@ class StagedRun:
             except ProceduraError as exc:  # the program as refined ships; the finish reports it
                 source = self.state.source
                 stage.report["findings"].append(f"the articulation stage stopped: {exc}")
-            self.articulation_report = stage.report
+            self.articulation_report = self.state.articulation = _plain(stage.report)
             self._prebuilt = (stage.built_source, stage.build)
             if source != self.state.source:
                 self.state.source, self._model = source, None
@@ -437,6 +439,11 @@ class StagedRun:
         if result.message:
             report["reason"] = result.message
         write_atomic(path, json.dumps(report, indent=2, ensure_ascii=False, default=str) + "\n")
+
+
+def _plain(report: dict[str, Any]) -> dict[str, Any]:
+    """A stage report as plain JSON values (it is kept in state.json)."""
+    return json.loads(json.dumps(report, default=str))
 
 
 def _body_name(text: str) -> str | None:
