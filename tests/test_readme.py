@@ -20,9 +20,9 @@ def test_readme_starts_with_two_one_line_commands_in_a_venv():
         # Debian 12 refuses a bare `pip install` (externally managed) and has no `python`.
         assert "apt-get install -y python3-venv" in cmd
         assert cmd.index("python3 -m venv .venv") < cmd.index(". .venv/bin/activate") < cmd.index("pip install")
-    assert first.endswith("procedura-brep generate --model replay:examples/tapes/drill_press_staged.jsonl "
-                          "-o out/drill_press")
-    tape = ROOT / "examples" / "tapes" / "drill_press_staged.jsonl"
+    assert first.endswith("procedura-brep generate --model replay:examples/tapes/robot_arm_staged.jsonl "
+                          "-o out/robot_arm")
+    tape = ROOT / "examples" / "tapes" / "robot_arm_staged.jsonl"
     assert "recorded through exchange, model played by an external coding agent" in \
         tape.read_text().split("\n", 1)[0].lower()
     assert "pip install -e '.[dev]'" in second and second.endswith("python -m pytest -q -p no:cacheprovider")
