@@ -43,3 +43,7 @@ def test_reference_states_the_gate_limits_and_densities():
     assert f"closer than {TOL.connect_mm:g} mm" in ref
     assert all(f"{m.name} ({m.material_class}, {m.density:g})" in ref for m in MATERIALS.values())
     assert "M64" in ref and "up to 500 mm" in ref and "`home`" in ref
+    # touching is contact, and the two interference limits a model works against
+    assert "coincident faces are contact" in ref
+    assert f"thicker than {TOL.penetration_slack_mm:g} mm fails" in ref
+    assert f"at most {TOL.sim_penetration_mm:g} mm" in ref

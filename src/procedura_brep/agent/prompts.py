@@ -102,6 +102,12 @@ def conventions() -> str:
         f"- connectivity: pieces closer than {TOL.connect_mm:g} mm touch; a piece whose box side is at "
         f"least {TOL.span_tau:g} of the model's largest side and touches nothing is a visible floater "
         "(the build refuses a part that adds one).",
+        f"- interference: parts may touch (coincident faces are contact, not interference: a part "
+        f"seated on a face needs no pocket); a common volume of two parts thicker than "
+        f"{TOL.penetration_slack_mm:g} mm fails, unless it is a mate's own fit inside that mate's "
+        "features.",
+        f"- battery B2: moving one joint over its limits may add at most {TOL.sim_penetration_mm:g} mm "
+        "of interference with any other part (the depth and the pose are reported when it does).",
         "- compile: every part is a valid, non-empty solid; an exception names the part and the line.",
     ]
     return "\n".join(rows)
