@@ -358,7 +358,7 @@ class SweepScene:
                 cells, radius = self.orbit_cells(joint, a, b)
                 if not len(cells):
                     continue
-                n, worst = self._sweep_pair(joint, a, b, cells, extra, hit)
+                n = self._sweep_pair(joint, a, b, cells, extra, hit)
                 hit.samples = max(hit.samples, n)
                 hit.step_mm = TOL.sweep_step_mm
         except _BudgetSpent as spent:
@@ -369,14 +369,14 @@ class SweepScene:
         return hit
 
     def _sweep_pair(self, joint: Joint, a: str, b: str, cells: np.ndarray,
-                    extra: tuple[float, ...], hit: SweepHit) -> tuple[int, tuple[float, float, float] | None]:
+                    extra: tuple[float, ...], hit: SweepHit) -> int:
         """Conservative advancement along the range: at each pose every cell's gap to the fixed
         part's cover bounds how far its points may move before they can touch, so the next pose
         is the nearest at which some cell has moved its gap plus ``TOL.sweep_step_mm``, and never
         closer than ``sweep_step_mm`` at the largest lever arm. No point of a cell within reach of
-        the fixed part moves more than ``sweep_step_mm`` between two poses. Returns (poses,
-        (new depth, volume, joint value) of the worst pose or None); the worst pose so far is
-        also recorded in ``hit`` as it is found, so a sweep stopped at its budget keeps it."""
+        the fixed part moves more than ``sweep_step_mm`` between two poses. Returns the number of
+        poses; the deepest new interference is recorded in ``hit`` as it is found, so a sweep
+        stopped at its budget keeps it."""
         (ca, _), (cb, tb) = self.cover(a, joint), self.cover(b)
         inv = rigid_inverse(joint.frame)
         local = cells @ inv[:3, :3].T + inv[:3, 3]
@@ -394,12 +394,11 @@ class SweepScene:
         box_b = self.obb(b, np.eye(4))
         rest = self.rest(a, b).depth
         crops = None
-        worst: tuple[float, float, float] | None = None
         outside = [q for q in extra if q < lo - OVERSHOOT_EPS or q > hi + OVERSHOOT_EPS]
 
         def check(q: float) -> np.ndarray:
             """Check the pose at ``q``; return every cell's gap to the fixed part (mm)."""
-            nonlocal crops, worst
+            nonlocal crops
             m = motion(joint, q)
             dist, _ = tb.query(cells @ m[:3, :3].T + m[:3, 3],
                                distance_upper_bound=reach + ADVANCE_HORIZON_MM)
@@ -410,11 +409,9 @@ class SweepScene:
                                         (min([lo, *outside]), max([hi, *outside])))
                 self._spend(lambda: f"{a!r} against {b!r} at {label(joint, q)}")
                 o = exact_overlap(a, kernel.located(crops[0], m), b, crops[1])
-                if worst is None or o.depth - rest > worst[0]:
-                    worst = (o.depth - rest, o.volume, q)
-                    if worst[0] > hit.depth:
-                        hit.depth, hit.volume = worst[0], worst[1]
-                        hit.pair, hit.at, hit.value = (a, b), label(joint, q), q
+                if o.depth - rest > hit.depth:
+                    hit.depth, hit.volume = o.depth - rest, o.volume
+                    hit.pair, hit.at, hit.value = (a, b), label(joint, q), q
             return gap
 
         for q in outside:  # MuJoCo overshoots beyond the commanded range: one pose each
@@ -429,7 +426,7 @@ class SweepScene:
             q = min(q + adv, hi)
             if joint.type == "continuous" and q >= hi - 1e-12:
                 break  # a full turn: 2 pi is the first pose again
-        return poses, worst
+        return poses
 
     def _crops(self, joint: Joint, a: str, b: str, local: np.ndarray, rest: float,
                span: tuple[float, float]) -> tuple[object, object]:
