@@ -98,6 +98,19 @@ def test_gates_failed_first_build_writes_only_program_and_report(tmp_path, worke
     assert (out / "program.py").read_text() == LIFTED
 
 
+def test_a_failed_build_after_a_gates_failed_one_keeps_nothing_stale(tmp_path, worker):
+    """A gates_failed build that exported nothing is no complete build to keep: the next failed
+    build writes its own program and report instead of claiming the old one was kept."""
+    out = tmp_path / "run"
+    build(LAMP, out, source=LIFTED, formats=("step",))
+    broken = LAMP.read_text().replace("# === assembly ===", "# === assembly ===\n(")
+    res = build(LAMP, out, source=broken, formats=("step",))
+    assert res.status == "failed"
+    rep = _report(out)
+    assert "kept_previous" not in rep and rep["status"] == "failed"
+    assert (out / "program.py").read_text() == broken
+
+
 def test_gates_failed_build_with_export_failed_is_complete_and_replaces_the_old_one(good):
     res = build(LAMP, good, source=LIFTED, formats=("step",), export_failed=True)
     assert res.status == "gates_failed"

@@ -38,8 +38,9 @@ from .paths import write_atomic
 BUILD_OUTPUTS: tuple[str, ...] = (
     "program.py", "mates.json", "model.step", "model.obj", "model.mtl", "model.glb",
     "model.usda", "model.xml", "urdf", "renders/sim", "report.json")
-#: Statuses whose build wrote every file it was asked for.
-COMPLETE: frozenset[str] = frozenset({"ok", "gates_failed", "battery_failed"})
+#: Statuses whose build always writes every file it was asked for (a ``gates_failed`` build
+#: does only when asked to export anyway: its report then says ``"complete": true``).
+COMPLETE: frozenset[str] = frozenset({"ok", "battery_failed"})
 STAGING_PREFIX = ".staging-"
 
 
@@ -159,7 +160,8 @@ def complete_report(out: Path) -> dict[str, Any] | None:
         return None
     if report.get("kept_previous") and isinstance(report.get("previous"), dict):
         return report["previous"]
-    return report if report.get("status") in COMPLETE else None
+    complete = report.get("complete") is True or report.get("status") in COMPLETE
+    return report if complete else None
 
 
 def _move_aside(out: Path, rel: str, trash: Path) -> None:
