@@ -139,3 +139,18 @@ def test_simulate_of_a_6m_sphere_arm_ends_with_the_battery_verdict(tmp_path):
     checks = {c["id"]: c for c in json.loads(proc.stdout)["checks"]}
     assert not checks["B3"]["passed"] and "'arm'" in checks["B3"]["message"]
     assert seconds < 120
+
+
+def test_the_cli_leaves_with_its_exit_code_after_the_atexit_handlers(tmp_path):
+    """``main`` skips the interpreter teardown (1.2 s of OCCT/MuJoCo/USD destructors a cold
+    build) but keeps the exit code and runs the atexit handlers (compile worker, temp folders)."""
+    bad = tmp_path / "bad.py"
+    bad.write_text(_in_arm("return [][3]"))
+    marker = tmp_path / "atexit.txt"
+    code = ("import atexit, sys; atexit.register(lambda p=sys.argv[1]: open(p, 'w').write('ran')); "
+            "sys.argv = ['procedura-brep', 'check', sys.argv[2], '-q']; "
+            "from procedura_brep.cli import main; main()")
+    proc = subprocess.run([sys.executable, "-c", code, str(marker), str(bad)], capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 2 and "IndexError" in proc.stderr, (proc.returncode, proc.stderr[-500:])
+    assert marker.read_text() == "ran"
