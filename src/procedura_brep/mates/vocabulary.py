@@ -93,6 +93,7 @@ class MateType:
     table: Literal["iso286", "iso273"] = "iso286"
     doc: str = ""
     macro: str = ""
+    pcd_factor: float | None = None
 
     #: What ``Delta`` moves (:class:`.kinds.Motion`).
     motion: ClassVar[Motion] = Motion.NONE
@@ -102,6 +103,13 @@ class MateType:
     def resolve_fit(self, nominal: float, fit: FitClass) -> Fit:
         """The resolved fit for ``nominal`` (mm) under this type's table."""
         return iso273(nominal, fit) if self.table == "iso273" else iso286(nominal, fit)
+
+    def pcd(self, nominal: float, options: dict[str, Any]) -> float:
+        """The pitch circle diameter (mm) of its ring of bolts or studs (0 without a ring): the
+        ``pcd`` option, else ``pcd_factor`` times the nominal (as its feature macro)."""
+        if self.pcd_factor is None:
+            return 0.0
+        return float(options.get("pcd") or self.pcd_factor * nominal)
 
     def joint_kind(self, options: dict[str, Any]) -> JointKind | None:
         """The articulation joint kind of a mate with ``options`` (None: a static mate, no joint)."""
@@ -230,7 +238,7 @@ TYPES: dict[str, MateType] = {t.name: t for t in [
               "angle0": Option(0.0, -360.0, 360.0, doc="angle of the first bolt from +X, deg"),
               "features": _FEAT, "male": _MALE},
              table="iso273",
-             macro="bolt_pattern",
+             macro="bolt_pattern", pcd_factor=4.0,
              doc="studs of M-size d on the child through ISO 273 clearance holes in the parent"),
     MateType("peg_socket", "static", STATIC_DOF, ("clearance", "location", "press"), "location",
              {"depth": _DEPTH, "features": _FEAT, "male": _MALE},
@@ -246,7 +254,7 @@ TYPES: dict[str, MateType] = {t.name: t for t in [
               "bolt": Option(None, 1.6, 64.0, doc="stud M-size, mm (default from d)"),
               "angle0": Option(0.0, -360.0, 360.0, doc="angle of the first stud from +X, deg"),
               "features": _FEAT, "male": _MALE},
-             macro="flange",
+             macro="flange", pcd_factor=1.5,
              doc="pilot spigot of diameter d plus a ring of studs, into a pilot recess and holes"),
     MateType("tab_slot", "static", STATIC_DOF, ("clearance", "location", "press"), "location",
              {"thickness": Option(None, 0.1, 1000.0, doc="tab thickness, mm (default 0.25 d)"),
