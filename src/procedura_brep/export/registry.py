@@ -37,7 +37,8 @@ class Format:
 
     Attributes:
         name: the ``--formats`` name.
-        files: the files it writes, for people (``urdf/`` is a folder).
+        files: the files it writes, comma-separated (a name ending in ``/`` is a folder); a test
+            checks every row against what its writer returns.
         description: one line.
         write: the writer.
         articulated: whether it needs the articulation (links, joints) and link masses.
@@ -89,8 +90,8 @@ REGISTRY: dict[str, Format] = {f.name: f for f in (
            articulated=True),
     Format("urdf", "urdf/", "URDF, strict and mujoco profiles, with STL meshes", _urdf,
            articulated=True),
-    Format("mjcf", "model.xml", "MJCF scene the MuJoCo battery runs (meshes shared with urdf/)",
-           _mjcf, articulated=True),
+    Format("mjcf", "model.xml, urdf/meshes/", "MJCF scene the MuJoCo battery runs (meshes "
+           "shared with urdf/)", _mjcf, articulated=True),
 )}
 
 #: Every format name ``--formats`` accepts, in writing order.
