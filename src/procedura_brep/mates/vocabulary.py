@@ -1,9 +1,13 @@
 """The closed mate vocabulary: nine static types and four kinematic ones.
 
 Every type fixes its degree-of-freedom signature, the fit classes it accepts, and its options
-(with defaults and allowed ranges). This module is pure data plus validation; the geometry of
-each type lives in :mod:`procedura_brep.mates.features` and placement in
-:mod:`procedura_brep.mates.placement`.
+(with defaults and allowed ranges), and is the one home of its behaviour: one class per family
+(static :class:`MateType`, :class:`RevoluteType`, :class:`PrismaticType`, :class:`SphericalType`,
+:class:`CylindricalType`) owns its motion, ``Delta``, home value, range check and joint kind
+(:mod:`.kinds`: the URDF / MJCF / USD mapping), and names its feature macro. Callers ask the type
+(``TYPES[name].motion``, ``.joint_kind(options)``, ...) and never compare type names. This module
+is pure data plus validation (no numeric or CAD import); the geometry of each macro lives in
+:mod:`procedura_brep.mates.features` and the ``Delta`` math in :mod:`procedura_brep.mates.placement`.
 
 Frame convention: a mate frame's +Z is the mate axis and points from the parent into the child.
 After placement the child's frame coincides with the parent's (same origin, same axes), offset
