@@ -23,6 +23,7 @@ import typer
 
 from .console import err as _err
 from .console import more as _more
+from .export.registry import FORMAT_NAMES
 from .run.status import EXIT_FAIL, EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_OK, EXIT_USAGE, exit_code
 
 app = typer.Typer(
@@ -44,8 +45,10 @@ class StepSchema(str, Enum):
     AP242 = "AP242"
 
 
+#: The ``--formats`` names (the rows of :mod:`.export.registry`), as the help text lists them.
+FORMAT_LIST = ",".join(FORMAT_NAMES)
 FormatsOption = Annotated[Optional[str], typer.Option(
-    help="Comma list of step,obj,glb,usd,urdf,mjcf (default: all).")]
+    help=f"Comma list of {FORMAT_LIST} (default: all).")]
 StepSchemaOption = Annotated[StepSchema, typer.Option("--step-schema", help="STEP application protocol.")]
 QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="No progress lines on stderr.")]
 
@@ -448,7 +451,7 @@ def generate(
                                                                          "than this many USD.")] = None,
     attempts: Annotated[int, typer.Option(min=1, max=10, help="Attempts per part (one-shot: calls).")] = 3,
     timeout: Annotated[Optional[float], typer.Option(help="Seconds to wait for one reply.")] = None,
-    formats: Annotated[Optional[str], typer.Option(help="Exports (default: all).")] = None,
+    formats: Annotated[Optional[str], typer.Option(help=f"Exports: {FORMAT_LIST} (default: all).")] = None,
     one_shot: Annotated[bool, typer.Option("--one-shot", help="The control: the whole program in one call.")] = False,
     no_plan: Annotated[bool, typer.Option("--no-plan", help="Ablation: no assembly plan.")] = False,
     no_review: Annotated[bool, typer.Option("--no-review", help="Ablation: no plan review.")] = False,
@@ -694,7 +697,7 @@ def bench(
     salt: Annotated[Optional[str], typer.Option("--salt", help="Salt of the opaque judge ids (default: "
                                                 "the directory's, else random).")] = None,
     max_cost: Annotated[Optional[float], typer.Option("--max-cost", help="USD limit per run.")] = None,
-    formats: Annotated[Optional[str], typer.Option(help="Exports per run (default: all).")] = None,
+    formats: Annotated[Optional[str], typer.Option(help=f"Exports per run: {FORMAT_LIST} (default: all).")] = None,
     no_simulate: Annotated[bool, typer.Option("--no-simulate", help="Skip the MuJoCo battery.")] = False,
     quiet: QuietOption = False,
 ) -> None:

@@ -53,6 +53,32 @@ def test_parse_formats():
         parse_formats("step,bogus")
 
 
+def test_formats_are_the_registry_rows_and_the_cli_lists_them():
+    from typer.testing import CliRunner
+
+    from procedura_brep.cli import app
+    from procedura_brep.export.registry import REGISTRY
+    assert FORMATS == tuple(REGISTRY) and all(parse_formats(f) == (f,) for f in FORMATS)
+    out = CliRunner().invoke(app, ["export", "--help"], env={"COLUMNS": "400"}).output
+    assert ",".join(FORMATS) in out
+
+
+def test_each_registry_row_writes_exactly_its_declared_files(lamp):
+    """A row's ``files`` column is what its writer returns: every declared file is written and
+    nothing outside its declared files and folders."""
+    from procedura_brep.export.bundle import bundle_bytes
+    from procedura_brep.export.registry import REGISTRY
+    for row in REGISTRY.values():
+        declared = [f.strip() for f in row.files.split(",")]
+        got = set(bundle_bytes(lamp, formats=row.name))
+        stray = sorted(p for p in got if not any(p == d or (d.endswith("/") and p.startswith(d))
+                                                 for d in declared))
+        missing = [d for d in declared if not any(p == d or p.startswith(d) for p in got)]
+        assert not stray and not missing, (row.name, stray, missing)
+        assert row.description and row.articulated == any(p.startswith("urdf/") or p == "model.usda"
+                                                          for p in got)
+
+
 def test_obj_groups_and_pbr_mtl(lamp, bundle):
     out, _ = bundle
     groups = read_obj_groups((out / "model.obj").read_text())

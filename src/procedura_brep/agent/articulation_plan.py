@@ -33,13 +33,15 @@ from ..articulation import Articulation
 from ..articulation.wheels import is_round_about
 from ..config import TOL
 from ..errors import ProceduraError
+from ..mates.kinds import Motion
+from ..mates.vocabulary import TYPES
 from ..program.model import CompiledMate, CompiledModel
 
 _FENCE_RE = re.compile(r"```(?:json)?\s*\n(.*?)```", re.S)
 #: Options a joint or promotion entry may set (besides ``mate``, ``type`` and ``drive``).
 JOINT_OPTIONS = ("limits", "home", "effort", "velocity", "cone")
 #: The kinematic types a static mate may be promoted to.
-PROMOTABLE = ("revolute", "prismatic")
+PROMOTABLE = tuple(n for n, t in TYPES.items() if t.motion in (Motion.TURN, Motion.SLIDE))
 PLAN_KEYS = ("links", "joints", "promote", "base", "wheels")
 DRIVES = ("position", "velocity")
 BASES = ("free", "welded")
@@ -131,12 +133,14 @@ def _entry(item: Any, where: str, mates: dict[str, CompiledMate], promote: bool,
         problems.append(f"{where} {name}: drive must be one of {', '.join(DRIVES)}, got {drive!r}")
     jtype = new_type or m.type
     limits = opts["limits"] if "limits" in opts else m.options.get("limits")
-    if jtype == "prismatic" and limits is None:
-        problems.append(f"{where} {name}: a prismatic joint needs limits [lo, hi] in mm")
-    if drive == "velocity" and not (jtype == "revolute" and limits is None):
+    mtype = TYPES.get(jtype)
+    kind = None if mtype is None else mtype.joint_kind({"limits": limits})
+    if mtype is not None and mtype.needs_limits and limits is None:
+        problems.append(f"{where} {name}: a {jtype} joint needs limits [lo, hi] in mm")
+    if drive == "velocity" and not (kind is not None and kind.endless):
         problems.append(f"{where} {name}: a velocity drive is for a continuous turn (a revolute "
                         f"with limits null)")
-    if drive == "position" and jtype == "revolute" and limits is None:
+    if drive == "position" and kind is not None and kind.endless:
         problems.append(f"{where} {name}: a position drive needs limits; give limits or drive "
                         f"\"velocity\"")
     return JointEdit(name, opts, drive, new_type)
@@ -213,11 +217,12 @@ def promotion_refusal(mate: CompiledMate, to: str, evidence: dict[str, Any]) -> 
     frame = np.asarray(mate.world_frame, float)
     syms = {n: evidence["parts"][n]["symmetry"] for n in (mate.child, mate.parent)
             if n in evidence.get("parts", {})}
-    if any(_round(s, frame, line=(to == "revolute")) for s in syms.values()):
+    turn = TYPES[to].motion is Motion.TURN
+    if any(_round(s, frame, line=turn) for s in syms.values()):
         return None
     kinds = ", ".join(f"{n}: {s.get('kind')}" for n, s in syms.items())
     need = ("round about the mate axis (a symmetry axis along it, through the anchor)"
-            if to == "revolute" else "a symmetry axis parallel to the mate axis")
+            if turn else "a symmetry axis parallel to the mate axis")
     return (f"promote {mate.name} to {to} refused: neither {mate.child} nor {mate.parent} is "
             f"{need} (evidence {kinds})")
 

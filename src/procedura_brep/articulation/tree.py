@@ -24,6 +24,7 @@ from typing import Any, Literal
 import numpy as np
 
 from ..errors import ProceduraError
+from ..mates.kinds import CONTINUOUS, PRISMATIC, REVOLUTE, Drive, JointKind, joint_kind
 from ..mates.vocabulary import TYPES
 from ..program.model import CompiledMate, CompiledModel
 
@@ -31,10 +32,6 @@ log = logging.getLogger(__name__)
 
 JointType = Literal["revolute", "continuous", "prismatic", "spherical", "cylindrical"]
 DofType = Literal["revolute", "continuous", "prismatic"]
-#: How a joint is driven: ``position`` (a servo to a commanded position inside the limits; for a
-#: spherical joint, three hold servos about the frame's axes) or ``velocity`` (a speed servo: a
-#: continuous joint, a wheel).
-Drive = Literal["position", "velocity"]
 #: The root link: ``free`` (a free joint: a vehicle on its wheels) or ``welded`` to the world.
 Base = Literal["free", "welded"]
 
@@ -56,10 +53,15 @@ class JointDof:
     velocity: float
     drive: Drive = "position"
 
+    @property
+    def kind(self) -> JointKind:
+        """What this joint is (:mod:`procedura_brep.mates.kinds`)."""
+        return joint_kind(self.type)
+
 
 def default_drive(jtype: JointType | DofType) -> Drive:
     """The drive a joint of this type gets: velocity for a continuous turn, else position."""
-    return "velocity" if jtype == "continuous" else "position"
+    return joint_kind(jtype).default_drive
 
 
 class ArticulationError(ProceduraError, ValueError):
@@ -128,14 +130,20 @@ class Joint:
     home: float = 0.0
     drive: Drive = "position"
 
+    @property
+    def kind(self) -> JointKind:
+        """What this joint is (:mod:`procedura_brep.mates.kinds`)."""
+        return joint_kind(self.type)
+
     def dofs(self) -> list[JointDof]:
         """The 1-DOF joints this joint exports as (none for a spherical joint)."""
-        if self.type == "spherical":
+        kind = self.kind
+        if kind.ball:
             return []
-        if self.type == "cylindrical":
-            turn: DofType = "continuous" if self.turn_lower is None else "revolute"
-            return [JointDof(self.name + SLIDE, "prismatic", self.lower, self.upper, self.effort,
-                             self.velocity, self.drive),
+        if kind.compound:
+            turn: DofType = (CONTINUOUS if self.turn_lower is None else REVOLUTE).name  # type: ignore[assignment]
+            return [JointDof(self.name + SLIDE, PRISMATIC.name, self.lower, self.upper,  # type: ignore[arg-type]
+                             self.effort, self.velocity, self.drive),
                     JointDof(self.name + TURN, turn, self.turn_lower, self.turn_upper,
                              self.torque, self.angular_velocity, default_drive(turn))]
         return [JointDof(self.name, self.type, self.lower, self.upper, self.effort,  # type: ignore[arg-type]
@@ -231,34 +239,35 @@ def mate_option(mate: CompiledMate, key: str) -> float:
     return float(value)
 
 
+def _kind(mate: CompiledMate) -> JointKind:
+    kind = TYPES[mate.type].joint_kind(mate.options)
+    if kind is None:
+        raise ArticulationError(f"mate {mate.name!r} of type {mate.type!r} is not kinematic")
+    return kind
+
+
 def mate_home(mate: CompiledMate) -> float:
     """The mate's ``home`` in SI units (rad for a revolute, m for a prismatic or cylindrical
     slide; 0 for a spherical joint)."""
-    if mate.type == "revolute":
-        return float(np.radians(mate_option(mate, "home")))
-    if mate.type in ("prismatic", "cylindrical"):
-        return mate_option(mate, "home") / 1000.0
-    return 0.0
+    kind = TYPES[mate.type].joint_kind(mate.options)
+    if kind is None or kind.ball:
+        return 0.0
+    return kind.to_si(mate_option(mate, "home"))
 
 
 def joint_limits(mate: CompiledMate) -> tuple[JointType, float | None, float | None]:
     """(type, lower, upper) in SI units relative to the compiled (home) pose."""
-    opts = mate.options
-    if mate.type == "spherical":
-        cone = mate_option(mate, "cone")
-        return "spherical", 0.0, float(np.radians(cone))
-    lim = opts.get("limits")
-    home = mate_option(mate, "home") if mate.type in ("revolute", "prismatic", "cylindrical") else 0.0
-    if mate.type == "revolute":
-        if lim is None:
-            return "continuous", None, None
-        return "revolute", float(np.radians(lim[0] - home)), float(np.radians(lim[1] - home))
-    if mate.type in ("prismatic", "cylindrical"):
-        if lim is None:
-            raise ArticulationError(
-                f"{mate.type} mate {mate.name!r} has no limits; give limits=(lo, hi) in mm")
-        return mate.type, (lim[0] - home) / 1000.0, (lim[1] - home) / 1000.0  # type: ignore[return-value]
-    raise ArticulationError(f"mate {mate.name!r} of type {mate.type!r} is not kinematic")
+    kind = _kind(mate)
+    if kind.ball:
+        return kind.name, 0.0, kind.to_si(mate_option(mate, "cone"))  # type: ignore[return-value]
+    if not kind.limited:
+        return kind.name, None, None  # type: ignore[return-value]
+    lim = mate.options.get("limits")
+    if lim is None:
+        raise ArticulationError(
+            f"{mate.type} mate {mate.name!r} has no limits; give limits=(lo, hi) in mm")
+    home = mate_option(mate, "home")
+    return kind.name, kind.to_si(lim[0] - home), kind.to_si(lim[1] - home)  # type: ignore[return-value]
 
 
 def _groups(model: CompiledModel) -> dict[str, str]:
@@ -326,13 +335,12 @@ def articulate(model: CompiledModel, *, evidence: dict[str, Any] | None = None) 
             lower=lo, upper=hi, effort=mate_option(m, "effort"),
             velocity=mate_option(m, "velocity"), mate=m, home=mate_home(m),
             drive=default_drive(jtype))
-        if jtype == "cylindrical":
+        if joint_kind(jtype).compound:
             j = joints_by_child[c]
             alim = m.options.get("angle_limits")
             h = mate_option(m, "home_angle")
             if alim is not None:
-                j.turn_lower, j.turn_upper = (float(np.radians(alim[0] - h)),
-                                              float(np.radians(alim[1] - h)))
+                j.turn_lower, j.turn_upper = REVOLUTE.to_si(alim[0] - h), REVOLUTE.to_si(alim[1] - h)
             j.torque, j.angular_velocity = mate_option(m, "torque"), mate_option(m, "angular_velocity")
     # walk from the root
     root_frame = np.asarray(model.part(model.parts[0].name).placement, float)

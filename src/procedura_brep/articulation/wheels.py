@@ -63,7 +63,7 @@ def find_wheels(model, links: dict[str, list[str]], joints: list, subtree, *,
             used when given (else each candidate's symmetry axis is computed here).
     """
     from .evidence import symmetry_axis
-    continuous = [j for j in joints if j.type == "continuous"]
+    continuous = [j for j in joints if j.kind.wheel]
     if not continuous:
         return []
     floor = min(float(p.mesh().vertices[:, 2].min()) for p in model.parts)

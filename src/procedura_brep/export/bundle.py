@@ -1,8 +1,8 @@
 """The bundle writer: every export format of one model into one run directory.
 
-``write_bundle(model, out_dir)`` writes ``model.step`` (when :mod:`procedura_brep.export.step` is
-importable), ``model.obj``/``model.mtl``, ``model.glb``, ``model.usda``, ``urdf/`` (both profiles
-plus ``meshes/``) and ``model.xml`` (MJCF, meshes shared with ``urdf/meshes``). ``program.py``,
+``write_bundle(model, out_dir)`` writes every format of :mod:`.registry` (one row each):
+``model.step``, ``model.obj``/``model.mtl``, ``model.glb``, ``model.usda``, ``urdf/`` (both
+profiles plus ``meshes/``) and ``model.xml`` (MJCF, meshes shared with ``urdf/meshes``). ``program.py``,
 ``mates.json`` and ``report.json`` belong to the caller. Articulation, masses and meshes are
 computed once and shared, so all formats agree by construction; each file is written to a
 temporary name and renamed.
@@ -20,11 +20,12 @@ from typing import Literal
 from ..articulation import Articulation, articulate, link_masses
 from ..paths import write_atomic
 from ..program.model import CompiledModel
+from .registry import FORMAT_NAMES, REGISTRY, ExportJob
 
 log = logging.getLogger(__name__)
 
-#: Every format name ``--formats`` accepts, in writing order.
-FORMATS: tuple[str, ...] = ("step", "obj", "glb", "usd", "urdf", "mjcf")
+#: Every format name ``--formats`` accepts, in writing order (the rows of :mod:`.registry`).
+FORMATS: tuple[str, ...] = FORMAT_NAMES
 
 
 def parse_formats(text: str | Iterable[str] | None) -> tuple[str, ...]:
@@ -53,31 +54,15 @@ def bundle_bytes(model: CompiledModel, *, formats: str | Iterable[str] | None = 
     fmts = parse_formats(formats)
     out: dict[str, bytes] = {}
     t = time.perf_counter()
-    needs_tree = any(f in fmts for f in ("usd", "urdf", "mjcf"))
+    needs_tree = any(REGISTRY[f].articulated for f in fmts)
     art = art or (articulate(model) if needs_tree else None)
     masses = link_masses(model, art) if art is not None else None
     times = timings if timings is not None else {}
     times["articulate"] = time.perf_counter() - t
+    job = ExportJob(model, art, masses, step_schema)
     for fmt in fmts:
         t = time.perf_counter()
-        if fmt == "step":
-            from .step import step_bytes
-            out["model.step"] = step_bytes(model, schema=step_schema)
-        elif fmt == "obj":
-            from .obj import obj_files
-            out.update(obj_files(model))
-        elif fmt == "glb":
-            from .glb import glb_bytes
-            out["model.glb"] = glb_bytes(model)
-        elif fmt == "usd":
-            from .usd import usda_text
-            out["model.usda"] = usda_text(model, art=art, masses=masses).encode()
-        elif fmt == "urdf":
-            from .urdf import urdf_files
-            out.update({f"urdf/{k}": v for k, v in urdf_files(model, art=art, masses=masses).items()})
-        elif fmt == "mjcf":
-            from .mjcf import mjcf_files
-            out.update(mjcf_files(model, art=art, masses=masses))
+        out.update(REGISTRY[fmt].write(job))
         times[fmt] = time.perf_counter() - t
     return out
 

@@ -33,6 +33,7 @@ import numpy as np
 
 from ..articulation.mass import MassProps, link_masses
 from ..articulation.tree import Articulation, ArticulationError, articulate
+from ..mates.kinds import JointKind
 from ..program.model import CompiledModel
 from .meshes import collision_pieces, part_mesh, sim_mesh, stl_bytes, to_local_m
 
@@ -115,13 +116,18 @@ def _inertial(body, mp: MassProps) -> None:
     body.inertia = [float(x) for x in w]
 
 
+def _mj_joint_type(kind: JointKind):
+    """The ``mjtJoint`` of a joint kind's MuJoCo type (``hinge``, ``slide``, ``ball``)."""
+    import mujoco
+    return getattr(mujoco.mjtJoint, f"mjJNT_{str(kind.mjcf).upper()}")
+
+
 def _dof_joint(spec, body, dof, kp: float) -> None:
     """A hinge or slide at the body origin about/along its z, with its servo."""
     import mujoco
-    jtype = mujoco.mjtJoint.mjJNT_SLIDE if dof.type == "prismatic" else mujoco.mjtJoint.mjJNT_HINGE
-    jt = body.add_joint(name=dof.name, type=jtype, axis=[0, 0, 1], pos=[0, 0, 0])
+    jt = body.add_joint(name=dof.name, type=_mj_joint_type(dof.kind), axis=[0, 0, 1], pos=[0, 0, 0])
     act = spec.add_actuator(name=dof.name, target=dof.name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
-    if dof.type == "continuous":
+    if not dof.kind.limited:
         jt.limited = mujoco.mjtLimited.mjLIMITED_FALSE
     else:
         jt.limited = mujoco.mjtLimited.mjLIMITED_TRUE
@@ -176,9 +182,9 @@ def _build(model: CompiledModel, art: Articulation, masses: dict[str, MassProps]
             continue
         j = art.joint(lk.parent_joint)
         kp = (gains or {}).get(j.name, 1.0)
-        if j.type == "spherical":  # always a position hold (its drive)
+        if j.kind.ball:  # always a position hold (its drive)
             # a ball joint's range is "0 cone": only the upper value (the cone half-angle) counts
-            body.add_joint(name=j.name, type=mujoco.mjtJoint.mjJNT_BALL, pos=[0, 0, 0],
+            body.add_joint(name=j.name, type=_mj_joint_type(j.kind), pos=[0, 0, 0],
                            range=[0.0, float(j.upper)], limited=mujoco.mjtLimited.mjLIMITED_TRUE)
             for k, ax in enumerate("xyz"):  # hold servos about the joint frame's x, y, z
                 act = spec.add_actuator(name=f"{j.name}__{ax}", target=j.name,
@@ -216,7 +222,7 @@ def build_mjcf(model: CompiledModel, *, art: Articulation | None = None,
     mujoco.mj_fullM(m, d, mass_matrix)
     gains: dict[str, float] = {}
     for j in art.joints:
-        if j.type == "spherical":  # the largest of its three diagonal inertias
+        if j.kind.ball:  # the largest of its three diagonal inertias
             jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j.name)
             dof = int(m.jnt_dofadr[jid])
             gains[j.name] = float(np.max(np.diag(mass_matrix)[dof:dof + 3]))

@@ -33,6 +33,7 @@ import numpy as np
 
 from ..articulation.mass import MassProps, link_masses
 from ..articulation.tree import Articulation, Joint, articulate
+from ..mates.kinds import REVOLUTE, JointKind
 from ..materials import get
 from ..program.model import CompiledModel
 from .meshes import collision_pieces, sim_mesh, stl_bytes, to_local_m
@@ -119,15 +120,16 @@ def _tiny_link(robot: ET.Element, name: str) -> None:
     _inertial(link, MassProps(TINY_MASS_KG, np.zeros(3), np.eye(3) * TINY_INERTIA))
 
 
-def _joint(robot: ET.Element, name: str, jtype: str, parent: str, child: str, org: np.ndarray,
+def _joint(robot: ET.Element, name: str, kind: JointKind, parent: str, child: str, org: np.ndarray,
            axis: str, j: Joint, lo: float | None, hi: float | None,
            limits: tuple[float, float] | None = None) -> None:
-    """One ``<joint>``; ``limits`` = (effort, velocity), default the joint's own."""
-    el = ET.SubElement(robot, "joint", name=name, type=jtype)
+    """One ``<joint>`` of ``kind`` (its URDF type; a ball has no axis); ``limits`` = (effort,
+    velocity), default the joint's own."""
+    el = ET.SubElement(robot, "joint", name=name, type=str(kind.urdf))
     origin(el, org)
     ET.SubElement(el, "parent", link=parent)
     ET.SubElement(el, "child", link=child)
-    if jtype != "spherical":
+    if not kind.ball:
         ET.SubElement(el, "axis", xyz=axis)
     effort, velocity = limits or (j.effort, j.velocity)
     attrs = {"effort": fmt(effort), "velocity": fmt(velocity)}
@@ -181,32 +183,33 @@ def urdf_text(model: CompiledModel, *, profile: Profile = "strict",
                 ET.SubElement(geo, "mesh", filename=f"meshes/{name}__c{k}.stl")
     for j in art.joints:
         org = relative_m(art.link(j.parent).frame, art.link(j.child).frame)
-        if j.type == "spherical" and profile == "strict":
+        kind = j.kind
+        if kind.ball and profile == "strict":
             ident = np.eye(4)
             _tiny_link(robot, f"{j.name}__x")
             _tiny_link(robot, f"{j.name}__y")
             cone = j.upper
-            _joint(robot, f"{j.name}__x", "revolute", j.parent, f"{j.name}__x", org, "1 0 0",
+            _joint(robot, f"{j.name}__x", REVOLUTE, j.parent, f"{j.name}__x", org, "1 0 0",
                    j, -cone, cone)
-            _joint(robot, f"{j.name}__y", "revolute", f"{j.name}__x", f"{j.name}__y", ident,
+            _joint(robot, f"{j.name}__y", REVOLUTE, f"{j.name}__x", f"{j.name}__y", ident,
                    "0 1 0", j, -cone, cone)
-            _joint(robot, f"{j.name}__z", "revolute", f"{j.name}__y", j.child, ident, "0 0 1",
+            _joint(robot, f"{j.name}__z", REVOLUTE, f"{j.name}__y", j.child, ident, "0 0 1",
                    j, -cone, cone)
-        elif j.type == "spherical":
+        elif kind.ball:
             # MuJoCo's URDF importer maps "spherical" to a ball joint and reads <limit lower upper>
             # into its range, whose ball convention is "0 cone" (autolimits makes it limited)
-            _joint(robot, j.name, "spherical", j.parent, j.child, org, "0 0 1", j, 0.0, j.upper)
-        elif j.type == "cylindrical":
+            _joint(robot, j.name, kind, j.parent, j.child, org, "0 0 1", j, 0.0, j.upper)
+        elif kind.compound:
             # both profiles: slide then turn on one axis, through a tiny-mass carrier link
             # (a URDF joint has one DOF, and MuJoCo's importer keeps one joint per link)
             slide, turn = j.dofs()
             _tiny_link(robot, slide.name)
-            _joint(robot, slide.name, "prismatic", j.parent, slide.name, org, "0 0 1", j,
+            _joint(robot, slide.name, slide.kind, j.parent, slide.name, org, "0 0 1", j,
                    slide.lower, slide.upper, (slide.effort, slide.velocity))
-            _joint(robot, turn.name, turn.type, slide.name, j.child, np.eye(4), "0 0 1", j,
+            _joint(robot, turn.name, turn.kind, slide.name, j.child, np.eye(4), "0 0 1", j,
                    turn.lower, turn.upper, (turn.effort, turn.velocity))
         else:
-            _joint(robot, j.name, j.type, j.parent, j.child, org, "0 0 1", j, j.lower, j.upper)
+            _joint(robot, j.name, kind, j.parent, j.child, org, "0 0 1", j, j.lower, j.upper)
     ET.indent(robot)
     return '<?xml version="1.0"?>\n' + ET.tostring(robot, encoding="unicode") + "\n"
 

@@ -133,23 +133,20 @@ def usd_stage(model: CompiledModel, *, art: Articulation | None = None,
         fixed.CreateLocalRot1Attr(Gf.Quatf(1.0, Gf.Vec3f(0.0, 0.0, 0.0)))
     for j in art.joints:
         jpath = f"{root}/joints/{j.name}"
-        if j.type == "spherical":
-            jp = UsdPhysics.SphericalJoint.Define(stage, jpath)
-            jp.CreateAxisAttr("X")
-            cone = float(np.degrees(j.upper))
-            jp.CreateConeAngle0LimitAttr(cone)
-            jp.CreateConeAngle1LimitAttr(cone)
-        elif j.type == "cylindrical":
+        kind = j.kind  # its schema: kind.usd (a cylindrical joint: a D6 joint, _cylindrical)
+        if kind.compound:
             jp = _cylindrical(stage, jpath, j)
-        elif j.type == "prismatic":
-            jp = UsdPhysics.PrismaticJoint.Define(stage, jpath)
-            jp.CreateAxisAttr("X")
-            jp.CreateLowerLimitAttr(float(j.lower))
-            jp.CreateUpperLimitAttr(float(j.upper))
         else:
-            jp = UsdPhysics.RevoluteJoint.Define(stage, jpath)
+            jp = getattr(UsdPhysics, kind.usd).Define(stage, jpath)
             jp.CreateAxisAttr("X")
-            if j.type == "revolute":
+            if kind.ball:
+                cone = float(np.degrees(j.upper))
+                jp.CreateConeAngle0LimitAttr(cone)
+                jp.CreateConeAngle1LimitAttr(cone)
+            elif kind.slides:  # metres
+                jp.CreateLowerLimitAttr(float(j.lower))
+                jp.CreateUpperLimitAttr(float(j.upper))
+            elif kind.limited:  # degrees
                 jp.CreateLowerLimitAttr(float(np.degrees(j.lower)))
                 jp.CreateUpperLimitAttr(float(np.degrees(j.upper)))
         jp.CreateBody0Rel().SetTargets([f"{root}/{j.parent}"])
@@ -159,9 +156,9 @@ def usd_stage(model: CompiledModel, *, art: Articulation | None = None,
             local = np.linalg.inv(art.link(body).frame) @ j.frame
             setpos(Gf.Vec3f(*[float(c) for c in local[:3, 3] / 1000.0]))
             setrot(_quatf(local[:3, :3] @ Z_TO_X))
-        if j.type == "cylindrical":
-            for dof, kind in zip(j.dofs(), ("transX", "rotX")):
-                drive = UsdPhysics.DriveAPI.Apply(jp.GetPrim(), kind)
+        if kind.compound:
+            for dof, instance in zip(j.dofs(), ("transX", "rotX")):
+                drive = UsdPhysics.DriveAPI.Apply(jp.GetPrim(), instance)
                 drive.CreateTypeAttr("force")
                 drive.CreateMaxForceAttr(float(dof.effort))
                 drive.CreateDampingAttr(float(dof.effort * DRIVE_DAMPING_PER_EFFORT))
@@ -170,9 +167,8 @@ def usd_stage(model: CompiledModel, *, art: Articulation | None = None,
                 else:
                     drive.CreateStiffnessAttr(float(dof.effort * DRIVE_STIFFNESS_PER_EFFORT))
                     drive.CreateTargetPositionAttr(0.0)
-        elif j.type != "spherical":
-            kind = "linear" if j.type == "prismatic" else "angular"
-            drive = UsdPhysics.DriveAPI.Apply(jp.GetPrim(), kind)
+        elif kind.usd_drive is not None:
+            drive = UsdPhysics.DriveAPI.Apply(jp.GetPrim(), kind.usd_drive)
             drive.CreateTypeAttr("force")
             drive.CreateMaxForceAttr(float(j.effort))
             if j.drive == "velocity":
@@ -193,7 +189,7 @@ def _cylindrical(stage, path: str, j):
     """A generic (D6) PhysicsJoint free only along and about its X (the mate's Z): transY/Z and
     rotY/Z locked, transX limited in metres, rotX limited in degrees (free when the turn is)."""
     from pxr import UsdPhysics
-    jp = UsdPhysics.Joint.Define(stage, path)
+    jp = getattr(UsdPhysics, j.kind.usd).Define(stage, path)
     prim = jp.GetPrim()
     for dof in LOCKED_BY_CYLINDRICAL:
         lim = UsdPhysics.LimitAPI.Apply(prim, dof)

@@ -40,6 +40,8 @@ from typing import Any
 import numpy as np
 
 from ..config import TOL
+from ..mates.kinds import Motion
+from ..mates.vocabulary import TYPES
 from ..program.model import CompiledMate, CompiledModel, Finding
 from .common import common
 from .geometry import LRU, PartGeometry, boxes_near, part_geometry
@@ -175,12 +177,7 @@ def bearing_radius(mate: CompiledMate) -> float:
 
 
 def _pcd(mate: CompiledMate) -> float:
-    o = mate.options or {}
-    if mate.type == "bolt_pattern":
-        return float(o.get("pcd") or 4.0 * mate.nominal)
-    if mate.type == "flange":
-        return float(o.get("pcd") or 1.5 * mate.nominal)
-    return 0.0
+    return TYPES[mate.type].pcd(mate.nominal, mate.options or {})
 
 
 def region(mate: CompiledMate) -> tuple[float, float]:
@@ -188,7 +185,7 @@ def region(mate: CompiledMate) -> tuple[float, float]:
     o = mate.options or {}
     k = TOL.mate_region_factor * mate.nominal
     lim = [abs(float(v)) for v in (o.get("limits") or ()) if v is not None]
-    travel = max(lim, default=0.0) if mate.type == "prismatic" else 0.0
+    travel = max(lim, default=0.0) if TYPES[mate.type].motion is Motion.SLIDE else 0.0
     depth = float(o.get("depth") or 0.0) + float(o.get("length") or 0.0) + travel
     return k + _pcd(mate) / 2.0, k + depth
 

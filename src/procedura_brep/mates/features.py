@@ -16,6 +16,7 @@ from typing import Any
 from build123d import (Align, Box, Cylinder, Location, Part, Pos, Rot, Sphere, chamfer)
 
 from .fits import Fit, iso273
+from .vocabulary import TYPES
 
 TOP = (Align.CENTER, Align.CENTER, Align.MAX)  # hangs below z = 0
 BOTTOM = (Align.CENTER, Align.CENTER, Align.MIN)
@@ -149,12 +150,16 @@ def spherical(d: float, fit: Fit, o: dict[str, Any]) -> Halves:
     return Sphere(fit.shaft / 2), Sphere(fit.hole / 2)
 
 
-MACROS: dict[str, Callable[[float, Fit, dict[str, Any]], Halves]] = {
-    "bolt_pattern": bolt_pattern, "peg_socket": peg, "seat_face": seat_face, "flange": flange,
-    "tab_slot": tab_slot, "press_fit": press_fit, "lip_rabbet": lip_rabbet,
-    "snap_tab": snap_tab, "key": key, "revolute": revolute, "prismatic": prismatic,
-    "spherical": spherical, "cylindrical": cylindrical,
-}
+#: Every feature macro by function name; a mate type names its own (``MateType.macro``).
+MACROS: dict[str, Callable[[float, Fit, dict[str, Any]], Halves]] = {f.__name__: f for f in (
+    bolt_pattern, peg, seat_face, flange, tab_slot, press_fit, lip_rabbet, snap_tab, key,
+    revolute, prismatic, spherical, cylindrical)}
+
+
+def macro(mtype: str) -> Callable[[float, Fit, dict[str, Any]], Halves]:
+    """The feature macro of mate type ``mtype`` (the one its :class:`.vocabulary.MateType`
+    names)."""
+    return MACROS[TYPES[mtype].macro]
 
 
 #: Half a turn about the mate frame's X: the mating plane's mirror (z -> -z, y -> -y).
@@ -170,7 +175,7 @@ def build(mtype: str, d: float, fit: Fit, options: dict[str, Any]) -> Halves:
     """
     if not options.get("features", True):
         return None, None
-    male, female = MACROS[mtype](d, fit, options)
+    male, female = macro(mtype)(d, fit, options)
     if male_side(options) == "parent":
         male = None if male is None else FLIP * male
         female = None if female is None else FLIP * female
@@ -187,4 +192,4 @@ def sides(child: str, parent: str, options: dict[str, Any]) -> tuple[str, str]:
     return (parent, child) if male_side(options) == "parent" else (child, parent)
 
 
-__all__ = ["MACROS", "build", "male_side", "sides"]
+__all__ = ["MACROS", "build", "macro", "male_side", "sides"]

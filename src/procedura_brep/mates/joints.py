@@ -24,17 +24,25 @@ Runs only where build123d is imported (the sandbox child and tests).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 from build123d import Axis, BallJoint, LinearJoint, Location, RevoluteJoint, RigidJoint
 
+from .kinds import Motion
 from .placement import check_value
+from .vocabulary import TYPES
 
 
 @dataclass
 class KinematicJoint:
-    """A build123d joint on the parent plus the child's rigid joint it drives."""
+    """A build123d joint on the parent plus the child's rigid joint it drives.
+
+    ``mtype`` is the mate type (whose range check :meth:`move` applies; empty for a cylindrical
+    mate's inner slide and turn, which the mate checks); ``motion`` is how :meth:`move` drives
+    the joint.
+    """
 
     mtype: str
     joint: Any
@@ -45,6 +53,7 @@ class KinematicJoint:
     offset_deg: float = 0.0
     turn: "KinematicJoint | None" = None
     angle_limits: tuple[float, float] | None = None
+    motion: Motion = Motion.NONE
 
     def move(self, value: float | tuple[float, float, float]) -> None:
         """Move the child to joint value ``value`` (deg, mm, or (rx, ry, rz) deg).
@@ -53,15 +62,16 @@ class KinematicJoint:
             RangeError: the value is outside the mate's limits (or cone); the message names the
                 mate, the value and the range.
         """
-        check_value(self.name, self.mtype, value, limits=self.limits, cone=self.cone,
-                    angle_limits=self.angle_limits)
-        if self.mtype == "cylindrical":
+        if self.mtype:  # a cylindrical mate's inner slide and turn: checked by the mate
+            check_value(self.name, self.mtype, value, limits=self.limits, cone=self.cone,
+                        angle_limits=self.angle_limits)
+        if self.motion is Motion.SLIDE_TURN:
             z, ang = (float(v) for v in value)  # type: ignore[union-attr]
             self.joint.connect_to(self.child, position=z)
             self.turn.move(ang)  # type: ignore[union-attr]
-        elif self.mtype == "revolute":
+        elif self.motion is Motion.TURN:
             self.joint.connect_to(self.child, angle=float(value) - self.offset_deg)  # type: ignore[arg-type]
-        elif self.mtype == "prismatic":
+        elif self.motion is Motion.SLIDE:
             self.joint.connect_to(self.child, position=float(value))  # type: ignore[arg-type]
         else:
             self.joint.connect_to(self.child, angles=tuple(value))  # type: ignore[arg-type]
@@ -89,49 +99,79 @@ def kinematic(mtype: str, parent: Any, child: Any, f_parent: Location, f_child: 
     """The build123d joint of a kinematic mate, attached to ``parent`` and driving ``child``.
 
     ``parent`` must already sit at its world location; frames are part-local. A cylindrical
-    mate's carrier is placed at the slide value ``home[0]``.
+    mate's carrier is placed at the slide value ``home[0]``. The joint built is the one of the
+    type's :class:`.kinds.Motion`.
     """
-    if mtype == "cylindrical":
-        if limits is None:
-            raise ValueError("a cylindrical joint needs limits")
-        from build123d import Box
-        carrier = Box(1, 1, 1)  # massless stand-in for the slide's moving side; never exported
-        slide = kinematic("prismatic", parent, carrier, f_parent, Location(), f"{label}@slide",
-                          limits=limits)
-        slide.joint.connect_to(slide.child, position=float(home[0]))
-        turn = kinematic("revolute", carrier, child, Location(), f_child, f"{label}@turn",
-                         limits=angle_limits)
-        return KinematicJoint(mtype, slide.joint, slide.child, label, limits, None, 0.0, turn,
-                              angle_limits)
+    motion = TYPES[mtype].motion if mtype in TYPES else Motion.NONE
+    if motion not in _BUILDERS:
+        raise ValueError(f"{mtype!r} is not a kinematic mate type")
+    j = _BUILDERS[motion](parent, child, f_parent, f_child, label, limits=limits, cone=cone,
+                          angle_limits=angle_limits, home=home)
+    j.mtype = mtype
+    return j
+
+
+def _slide_turn(parent: Any, child: Any, f_parent: Location, f_child: Location, label: str, *,
+                limits: tuple[float, float] | None, angle_limits: tuple[float, float] | None,
+                home: tuple[float, float], **_: Any) -> KinematicJoint:
+    if limits is None:
+        raise ValueError("a cylindrical joint needs limits")
+    from build123d import Box
+    carrier = Box(1, 1, 1)  # massless stand-in for the slide's moving side; never exported
+    slide = _slide(parent, carrier, f_parent, Location(), f"{label}@slide", limits=limits)
+    slide.joint.connect_to(slide.child, position=float(home[0]))
+    turn = _turn(carrier, child, Location(), f_child, f"{label}@turn", limits=angle_limits)
+    return KinematicJoint("", slide.joint, slide.child, label, limits, None, 0.0, turn,
+                          angle_limits, Motion.SLIDE_TURN)
+
+
+def _world_axis(parent: Any, f_parent: Location) -> tuple[Location, Any, Any]:
     world = parent.location * f_parent  # build123d joints take world locations at creation
     origin = world.position
-    z_dir = (world * Location((0, 0, 1))).position - origin
+    return world, origin, (world * Location((0, 0, 1))).position - origin
+
+
+def _turn(parent: Any, child: Any, f_parent: Location, f_child: Location, label: str, *,
+          limits: tuple[float, float] | None, **_: Any) -> KinematicJoint:
+    _, origin, z_dir = _world_axis(parent, f_parent)
+    lo, hi = limits if limits is not None else (-math.inf, math.inf)
+    probe = RevoluteJoint(f"{label}@probe", parent, axis=Axis(origin, z_dir))
+    rel = f_parent.inverse() * probe.relative_axis.location
+    del parent.joints[f"{label}@probe"]
+    m = rel.wrapped.Transformation()
+    offset = math.degrees(math.atan2(m.Value(2, 1), m.Value(1, 1)))
+    joint = RevoluteJoint(label, parent, axis=Axis(origin, z_dir),
+                          angular_range=(lo - offset, hi - offset))
     child_frame = child.location * f_child
-    if mtype == "revolute":
-        lo, hi = limits if limits is not None else (-math.inf, math.inf)
-        probe = RevoluteJoint(f"{label}@probe", parent, axis=Axis(origin, z_dir))
-        rel = f_parent.inverse() * probe.relative_axis.location
-        del parent.joints[f"{label}@probe"]
-        m = rel.wrapped.Transformation()
-        offset = math.degrees(math.atan2(m.Value(2, 1), m.Value(1, 1)))
-        joint = RevoluteJoint(label, parent, axis=Axis(origin, z_dir),
-                              angular_range=(lo - offset, hi - offset))
-        return KinematicJoint(mtype, joint, RigidJoint(f"{label}@child", child, joint_location=child_frame),
-                              label, limits, None, offset)
-    if mtype == "prismatic":
-        if limits is None:
-            raise ValueError("a prismatic joint needs limits")
-        joint = LinearJoint(label, parent, axis=Axis(origin, z_dir), linear_range=limits)
-        carrier = child_frame * _rotation_only(f_parent).inverse()
-        return KinematicJoint(mtype, joint, RigidJoint(f"{label}@child", child, joint_location=carrier),
-                              label, limits)
-    if mtype == "spherical":
-        c = float(cone if cone is not None else 180.0)
-        joint = BallJoint(label, parent, joint_location=world,
-                          angular_range=((-c, c), (-c, c), (-180.0, 180.0)))
-        return KinematicJoint(mtype, joint, RigidJoint(f"{label}@child", child, joint_location=child_frame),
-                              label, None, c)
-    raise ValueError(f"{mtype!r} is not a kinematic mate type")
+    return KinematicJoint("", joint, RigidJoint(f"{label}@child", child, joint_location=child_frame),
+                          label, limits, None, offset, motion=Motion.TURN)
+
+
+def _slide(parent: Any, child: Any, f_parent: Location, f_child: Location, label: str, *,
+           limits: tuple[float, float] | None, **_: Any) -> KinematicJoint:
+    if limits is None:
+        raise ValueError("a prismatic joint needs limits")
+    _, origin, z_dir = _world_axis(parent, f_parent)
+    joint = LinearJoint(label, parent, axis=Axis(origin, z_dir), linear_range=limits)
+    carrier = child.location * f_child * _rotation_only(f_parent).inverse()
+    return KinematicJoint("", joint, RigidJoint(f"{label}@child", child, joint_location=carrier),
+                          label, limits, motion=Motion.SLIDE)
+
+
+def _ball(parent: Any, child: Any, f_parent: Location, f_child: Location, label: str, *,
+          cone: float | None, **_: Any) -> KinematicJoint:
+    world, _, _ = _world_axis(parent, f_parent)
+    c = float(cone if cone is not None else 180.0)
+    joint = BallJoint(label, parent, joint_location=world,
+                      angular_range=((-c, c), (-c, c), (-180.0, 180.0)))
+    child_frame = child.location * f_child
+    return KinematicJoint("", joint, RigidJoint(f"{label}@child", child, joint_location=child_frame),
+                          label, None, c, motion=Motion.BALL)
+
+
+#: The build123d joint of each kinematic motion.
+_BUILDERS: dict[Motion, Callable[..., KinematicJoint]] = {
+    Motion.TURN: _turn, Motion.SLIDE: _slide, Motion.BALL: _ball, Motion.SLIDE_TURN: _slide_turn}
 
 
 __all__ = ["KinematicJoint", "kinematic", "rigid_place"]

@@ -1,19 +1,22 @@
 """Closed-form placement: ``T_child = T_parent * F_parent * Delta * F_child^-1``.
 
 Pure numpy on 4x4 homogeneous matrices (millimetres), so the parent process can re-derive and
-check every placement without the CAD kernel. ``Delta`` is the joint's motion in the mate frame:
-identity for static mates, a rotation about Z for ``revolute``, a translation along Z for
-``prismatic``, a rotation about the frame origin for ``spherical``.
+check every placement without the CAD kernel. ``Delta`` is the joint's motion in the mate frame,
+chosen by the type's :class:`.kinds.Motion`: identity for static mates, a rotation about Z for
+``revolute``, a translation along Z for ``prismatic``, a rotation about the frame origin for
+``spherical``, both of the first two for ``cylindrical``.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from ..errors import RangeError
+from .kinds import Motion
+from .vocabulary import TYPES
 
 
 def rot_x(deg: float) -> np.ndarray:
@@ -49,31 +52,28 @@ def rigid_inverse(m: np.ndarray) -> np.ndarray:
 def check_value(mate: str, mtype: str, value: float | Sequence[float],
                 *, limits: tuple[float, float] | None = None, cone: float | None = None,
                 angle_limits: tuple[float, float] | None = None) -> None:
-    """Refuse a joint value outside its range, naming the mate, the value and the range.
+    """Refuse a joint value outside its range, naming the mate, the value and the range (the
+    type's own check, :meth:`.vocabulary.MateType.check_value`).
 
     Raises:
         RangeError: revolute angle (deg) or prismatic position (mm) outside ``limits``, or a
             spherical tilt (deg) beyond ``cone``, or a cylindrical (z mm, angle deg) outside
             ``limits`` / ``angle_limits``.
     """
-    if mtype == "cylindrical":
-        z, ang = (float(v) for v in value)  # type: ignore[union-attr]
-        if limits is not None and not limits[0] <= z <= limits[1]:
-            raise RangeError(f"{mate} (cylindrical) position", z, limits[0], limits[1], unit="mm")
-        if angle_limits is not None:
-            lo, hi = angle_limits
-            if not lo <= ang <= hi:
-                raise RangeError(f"{mate} (cylindrical) angle", ang, lo, hi, unit="deg")
-        return
-    if mtype in ("revolute", "prismatic"):
-        v = float(value)  # type: ignore[arg-type]
-        if limits is not None and not (limits[0] <= v <= limits[1]):
-            unit = "deg" if mtype == "revolute" else "mm"
-            raise RangeError(f"{mate} ({mtype}) position", v, limits[0], limits[1], unit=unit)
-    elif mtype == "spherical" and cone is not None:
-        tilt = spherical_tilt_deg(spherical_delta(value))  # type: ignore[arg-type]
-        if tilt > cone + 1e-9:
-            raise RangeError(f"{mate} (spherical) tilt", tilt, 0.0, cone, unit="deg")
+    TYPES[mtype].check_value(mate, value, limits=limits, cone=cone, angle_limits=angle_limits)
+
+
+def check_linear(what: str, value: float, limits: tuple[float, float] | None, unit: str) -> None:
+    """Refuse a 1-D joint value (deg or mm) outside ``limits`` (None: unbounded)."""
+    if limits is not None and not (limits[0] <= value <= limits[1]):
+        raise RangeError(what, value, limits[0], limits[1], unit=unit)
+
+
+def check_tilt(what: str, value: Sequence[float], cone: float) -> None:
+    """Refuse a spherical value (rx, ry, rz deg) whose tilt exceeds ``cone`` (deg)."""
+    tilt = spherical_tilt_deg(spherical_delta(value))
+    if tilt > cone + 1e-9:
+        raise RangeError(what, tilt, 0.0, cone, unit="deg")
 
 
 def spherical_delta(value: Sequence[float]) -> np.ndarray:
@@ -88,30 +88,35 @@ def spherical_tilt_deg(m: np.ndarray) -> float:
     return math.degrees(math.acos(max(-1.0, min(1.0, float(m[2, 2])))))
 
 
+def _slide_turn(value: Sequence[float]) -> np.ndarray:
+    z, ang = (float(v) for v in value)
+    return trans(z=z) @ rot_z(ang)
+
+
+#: ``Delta`` of each motion at a joint value (deg, mm, (rx, ry, rz) deg, or (z mm, angle deg)).
+_DELTAS: dict[Motion, Callable[..., np.ndarray]] = {
+    Motion.NONE: lambda value: np.eye(4),
+    Motion.TURN: lambda value: rot_z(float(value)),
+    Motion.SLIDE: lambda value: trans(z=float(value)),
+    Motion.BALL: spherical_delta,
+    Motion.SLIDE_TURN: _slide_turn,
+}
+
+
+def motion_delta(motion: Motion, value: float | Sequence[float] | None = None) -> np.ndarray:
+    """``Delta`` for ``motion`` at joint value ``value`` (None = home/identity)."""
+    return np.eye(4) if value is None else _DELTAS[motion](value)
+
+
 def delta(mtype: str, value: float | Sequence[float] | None = None) -> np.ndarray:
     """``Delta`` for a mate type at joint value ``value`` (None = home/identity); a cylindrical
     value is ``(z mm, angle deg)``: ``trans(z) @ rot_z(angle)``."""
-    if value is None or mtype not in ("revolute", "prismatic", "spherical", "cylindrical"):
-        return np.eye(4)
-    if mtype == "cylindrical":
-        z, ang = (float(v) for v in value)  # type: ignore[union-attr]
-        return trans(z=z) @ rot_z(ang)
-    if mtype == "revolute":
-        return rot_z(float(value))  # type: ignore[arg-type]
-    if mtype == "prismatic":
-        return trans(z=float(value))  # type: ignore[arg-type]
-    return spherical_delta(value)  # type: ignore[arg-type]
+    return TYPES[mtype].delta(value)
 
 
 def home_value(mtype: str, options: dict) -> float | tuple[float, ...] | None:
     """The joint value at which a kinematic mate places its child (None for static mates)."""
-    if mtype == "cylindrical":
-        return (float(options.get("home") or 0.0), float(options.get("home_angle") or 0.0))
-    if mtype == "spherical":
-        return (0.0, 0.0, 0.0)
-    if mtype in ("revolute", "prismatic"):
-        return float(options.get("home") or 0.0)
-    return None
+    return TYPES[mtype].home_value(options)
 
 
 def solve(parent_world: np.ndarray, f_parent: np.ndarray, f_child: np.ndarray,

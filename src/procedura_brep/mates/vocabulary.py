@@ -1,9 +1,13 @@
 """The closed mate vocabulary: nine static types and four kinematic ones.
 
 Every type fixes its degree-of-freedom signature, the fit classes it accepts, and its options
-(with defaults and allowed ranges). This module is pure data plus validation; the geometry of
-each type lives in :mod:`procedura_brep.mates.features` and placement in
-:mod:`procedura_brep.mates.placement`.
+(with defaults and allowed ranges), and is the one home of its behaviour: one class per family
+(static :class:`MateType`, :class:`RevoluteType`, :class:`PrismaticType`, :class:`SphericalType`,
+:class:`CylindricalType`) owns its motion, ``Delta``, home value, range check and joint kind
+(:mod:`.kinds`: the URDF / MJCF / USD mapping), and names its feature macro. Callers ask the type
+(``TYPES[name].motion``, ``.joint_kind(options)``, ...) and never compare type names. This module
+is pure data plus validation (no numeric or CAD import); the geometry of each macro lives in
+:mod:`procedura_brep.mates.features` and the ``Delta`` math in :mod:`procedura_brep.mates.placement`.
 
 Frame convention: a mate frame's +Z is the mate axis and points from the parent into the child.
 After placement the child's frame coincides with the parent's (same origin, same axes), offset
@@ -15,11 +19,16 @@ radial or lateral, and is cut into the features).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, ClassVar, Literal
 
 from ..errors import MateError
 from .fits import FIT_CLASSES, Fit, FitClass, iso273, iso286
+from .kinds import CONTINUOUS, CYLINDRICAL, PRISMATIC, REVOLUTE, SPHERICAL, JointKind, Motion
+
+if TYPE_CHECKING:
+    import numpy as np
 
 MateKind = Literal["static", "kinematic"]
 
@@ -71,7 +80,13 @@ class Dof:
 
 @dataclass(frozen=True)
 class MateType:
-    """A mate type: name, kind, DOF signature, accepted fits and options."""
+    """A mate type: name, kind, DOF signature, accepted fits and options, and its behaviour.
+
+    This base class is the static family (0 DOF, identity ``Delta``, no joint); each kinematic
+    family is a subclass that owns its motion, its ``Delta`` and home value, its range check and
+    the joint kind it exports as (:mod:`.kinds`). ``macro`` names the feature macro of
+    :mod:`.features` that builds its male and female halves (kept there: it needs build123d).
+    """
 
     name: str
     kind: MateKind
@@ -81,10 +96,130 @@ class MateType:
     options: dict[str, Option] = field(default_factory=dict)
     table: Literal["iso286", "iso273"] = "iso286"
     doc: str = ""
+    macro: str = ""
+    pcd_factor: float | None = None
+
+    #: What ``Delta`` moves (:class:`.kinds.Motion`).
+    motion: ClassVar[Motion] = Motion.NONE
+    #: Whether ``limits`` is required (a slide needs a travel).
+    needs_limits: ClassVar[bool] = False
 
     def resolve_fit(self, nominal: float, fit: FitClass) -> Fit:
         """The resolved fit for ``nominal`` (mm) under this type's table."""
         return iso273(nominal, fit) if self.table == "iso273" else iso286(nominal, fit)
+
+    def pcd(self, nominal: float, options: dict[str, Any]) -> float:
+        """The pitch circle diameter (mm) of its ring of bolts or studs (0 without a ring): the
+        ``pcd`` option, else ``pcd_factor`` times the nominal (as its feature macro)."""
+        if self.pcd_factor is None:
+            return 0.0
+        return float(options.get("pcd") or self.pcd_factor * nominal)
+
+    def joint_kind(self, options: dict[str, Any]) -> JointKind | None:
+        """The articulation joint kind of a mate with ``options`` (None: a static mate, no joint)."""
+        return None
+
+    def home_value(self, options: dict[str, Any]) -> float | tuple[float, ...] | None:
+        """The joint value at which the child is placed (None for a static mate)."""
+        return None
+
+    def delta(self, value: float | Sequence[float] | None = None) -> np.ndarray:
+        """``Delta`` (4x4, mm) at joint value ``value`` (None: home/identity)."""
+        from .placement import motion_delta
+        return motion_delta(self.motion, value)
+
+    def check_value(self, mate: str, value: float | Sequence[float], *,
+                    limits: tuple[float, float] | None = None, cone: float | None = None,
+                    angle_limits: tuple[float, float] | None = None) -> None:
+        """Refuse a joint value outside its range (a static mate has none to check).
+
+        Raises:
+            RangeError: the value is outside the range; names the mate, the value and the range.
+        """
+
+
+@dataclass(frozen=True)
+class RevoluteType(MateType):
+    """A turn about frame Z: limited in degrees, or continuous without limits."""
+
+    motion: ClassVar[Motion] = Motion.TURN
+
+    def joint_kind(self, options: dict[str, Any]) -> JointKind:
+        return CONTINUOUS if options.get("limits") is None else REVOLUTE
+
+    def home_value(self, options: dict[str, Any]) -> float:
+        return float(options.get("home") or 0.0)
+
+    def check_value(self, mate: str, value: float | Sequence[float], *,
+                    limits: tuple[float, float] | None = None, cone: float | None = None,
+                    angle_limits: tuple[float, float] | None = None) -> None:
+        from .placement import check_linear
+        check_linear(f"{mate} ({self.name}) position", float(value), limits,  # type: ignore[arg-type]
+                     REVOLUTE.mate_unit)
+
+
+@dataclass(frozen=True)
+class PrismaticType(MateType):
+    """A slide along frame Z, limits in millimetres (required)."""
+
+    motion: ClassVar[Motion] = Motion.SLIDE
+    needs_limits: ClassVar[bool] = True
+
+    def joint_kind(self, options: dict[str, Any]) -> JointKind:
+        return PRISMATIC
+
+    def home_value(self, options: dict[str, Any]) -> float:
+        return float(options.get("home") or 0.0)
+
+    def check_value(self, mate: str, value: float | Sequence[float], *,
+                    limits: tuple[float, float] | None = None, cone: float | None = None,
+                    angle_limits: tuple[float, float] | None = None) -> None:
+        from .placement import check_linear
+        check_linear(f"{mate} ({self.name}) position", float(value), limits,  # type: ignore[arg-type]
+                     PRISMATIC.mate_unit)
+
+
+@dataclass(frozen=True)
+class SphericalType(MateType):
+    """A ball about the frame origin, its tilt bounded by a cone (degrees)."""
+
+    motion: ClassVar[Motion] = Motion.BALL
+
+    def joint_kind(self, options: dict[str, Any]) -> JointKind:
+        return SPHERICAL
+
+    def home_value(self, options: dict[str, Any]) -> tuple[float, float, float]:
+        return (0.0, 0.0, 0.0)
+
+    def check_value(self, mate: str, value: float | Sequence[float], *,
+                    limits: tuple[float, float] | None = None, cone: float | None = None,
+                    angle_limits: tuple[float, float] | None = None) -> None:
+        if cone is None:
+            return
+        from .placement import check_tilt
+        check_tilt(f"{mate} ({self.name}) tilt", value, cone)  # type: ignore[arg-type]
+
+
+@dataclass(frozen=True)
+class CylindricalType(MateType):
+    """A slide along and a turn about frame Z: values ``(z mm, angle deg)``."""
+
+    motion: ClassVar[Motion] = Motion.SLIDE_TURN
+    needs_limits: ClassVar[bool] = True
+
+    def joint_kind(self, options: dict[str, Any]) -> JointKind:
+        return CYLINDRICAL
+
+    def home_value(self, options: dict[str, Any]) -> tuple[float, float]:
+        return (float(options.get("home") or 0.0), float(options.get("home_angle") or 0.0))
+
+    def check_value(self, mate: str, value: float | Sequence[float], *,
+                    limits: tuple[float, float] | None = None, cone: float | None = None,
+                    angle_limits: tuple[float, float] | None = None) -> None:
+        from .placement import check_linear
+        z, ang = (float(v) for v in value)  # type: ignore[union-attr]
+        check_linear(f"{mate} ({self.name}) position", z, limits, PRISMATIC.mate_unit)
+        check_linear(f"{mate} ({self.name}) angle", ang, angle_limits, REVOLUTE.mate_unit)
 
 
 _FEAT = Option(True, doc="build the male/female features (False: frames only)")
@@ -107,12 +242,15 @@ TYPES: dict[str, MateType] = {t.name: t for t in [
               "angle0": Option(0.0, -360.0, 360.0, doc="angle of the first bolt from +X, deg"),
               "features": _FEAT, "male": _MALE},
              table="iso273",
+             macro="bolt_pattern", pcd_factor=4.0,
              doc="studs of M-size d on the child through ISO 273 clearance holes in the parent"),
     MateType("peg_socket", "static", STATIC_DOF, ("clearance", "location", "press"), "location",
              {"depth": _DEPTH, "features": _FEAT, "male": _MALE},
+             macro="peg",
              doc="cylindrical peg of diameter d on the child in a blind socket in the parent"),
     MateType("seat_face", "static", STATIC_DOF, ("clearance", "location"), "location",
              {"depth": _DEPTH, "features": _FEAT, "male": _MALE},
+             macro="seat_face",
              doc="round seating pad of diameter d on the child in a spot-faced counterbore"),
     MateType("flange", "static", STATIC_DOF, ("clearance", "location"), "location",
              {"count": Option(6, 3, 36, integer=True, doc="number of flange studs"),
@@ -120,51 +258,60 @@ TYPES: dict[str, MateType] = {t.name: t for t in [
               "bolt": Option(None, 1.6, 64.0, doc="stud M-size, mm (default from d)"),
               "angle0": Option(0.0, -360.0, 360.0, doc="angle of the first stud from +X, deg"),
               "features": _FEAT, "male": _MALE},
+             macro="flange", pcd_factor=1.5,
              doc="pilot spigot of diameter d plus a ring of studs, into a pilot recess and holes"),
     MateType("tab_slot", "static", STATIC_DOF, ("clearance", "location", "press"), "location",
              {"thickness": Option(None, 0.1, 1000.0, doc="tab thickness, mm (default 0.25 d)"),
               "depth": _DEPTH, "features": _FEAT, "male": _MALE},
+             macro="tab_slot",
              doc="rectangular tab of width d along frame X and thickness along frame Y, reaching "
                  "depth along -Z from the frame into a matching slot in the parent"),
     MateType("press_fit", "static", STATIC_DOF, ("press", "location"), "press",
              {"depth": _DEPTH, "features": _FEAT, "male": _MALE},
+             macro="press_fit",
              doc="pin of diameter d pressed into an interference bore"),
     MateType("lip_rabbet", "static", STATIC_DOF, ("clearance", "location"), "location",
              {"wall": Option(None, 0.1, 1000.0, doc="lip wall thickness, mm (default 0.06 d)"),
               "depth": _DEPTH, "features": _FEAT, "male": _MALE},
+             macro="lip_rabbet",
              doc="annular lip of outer diameter d on the child in an annular groove"),
     MateType("snap_tab", "static", STATIC_DOF, ("snap",), "snap",
              {"depth": _DEPTH, "features": _FEAT, "male": _MALE},
+             macro="snap_tab",
              doc="cantilever tab of width d with a hook, preloaded into a window by the snap fit"),
     MateType("key", "static", STATIC_DOF, ("clearance", "location", "press"), "location",
              {"length": Option(None, 0.1, 5000.0, doc="key length along frame Y, mm (default 3 d)"),
               "features": _FEAT, "male": _MALE},
+             macro="key",
              doc="square key of width d, half in the child, half in a keyway in the parent"),
-    MateType("revolute", "kinematic", Dof(rotation=("z",)), ("clearance", "location"), "clearance",
+    RevoluteType("revolute", "kinematic", Dof(rotation=("z",)), ("clearance", "location"), "clearance",
              {"limits": Option(None, -360.0, 360.0, doc="(lo, hi) deg, or None for continuous"),
               "home": Option(0.0, -360.0, 360.0, doc="angle at which the child is placed, deg"),
               "effort": Option(10.0, 0.0, 1e6, open_low=True, doc="max torque, N m (> 0)"),
               "velocity": Option(3.0, 0.0, 1e4, open_low=True, doc="max speed, rad/s (> 0)"),
               "depth": _DEPTH, "features": _FEAT, "male": _MALE},
+             macro="revolute",
              doc="1 rotational DOF about frame Z: a pin of diameter d in a bore"),
-    MateType("prismatic", "kinematic", Dof(translation=("z",)), ("clearance", "location"), "clearance",
+    PrismaticType("prismatic", "kinematic", Dof(translation=("z",)), ("clearance", "location"), "clearance",
              {"limits": Option(None, -10000.0, 10000.0, doc="(lo, hi) mm along frame Z, required"),
               "home": Option(0.0, -10000.0, 10000.0, doc="position at which the child is placed, mm"),
               "effort": Option(100.0, 0.0, 1e6, open_low=True, doc="max force, N (> 0)"),
               "velocity": Option(0.1, 0.0, 1e3, open_low=True, doc="max speed, m/s (> 0)"),
               "depth": _DEPTH, "features": _FEAT, "male": _MALE},
+             macro="prismatic",
              doc="1 translational DOF along frame Z: a square guide bar of side d reaching depth "
                  "along -Z into a slot that is deepened by the negative travel; positive values "
                  "move the child out along +Z, so keep the upper limit below depth or the bar "
                  "leaves its slot (for a long slide, use features=False and model the ways)"),
-    MateType("spherical", "kinematic", Dof(rotation=("x", "y", "z")), ("clearance", "location"),
+    SphericalType("spherical", "kinematic", Dof(rotation=("x", "y", "z")), ("clearance", "location"),
              "clearance",
              {"cone": Option(30.0, 0.1, 180.0, doc="cone half-angle limit, deg"),
               "effort": Option(10.0, 0.0, 1e6, open_low=True, doc="max torque, N m (> 0)"),
               "velocity": Option(3.0, 0.0, 1e4, open_low=True, doc="max speed, rad/s (> 0)"),
               "features": _FEAT, "male": _MALE},
+             macro="spherical",
              doc="3 rotational DOF about the frame origin: a ball of diameter d in a socket"),
-    MateType("cylindrical", "kinematic", Dof(translation=("z",), rotation=("z",)),
+    CylindricalType("cylindrical", "kinematic", Dof(translation=("z",), rotation=("z",)),
              ("clearance", "location"), "clearance",
              {"limits": Option(None, -10000.0, 10000.0, doc="(lo, hi) mm along frame Z, required"),
               "angle_limits": Option(None, -360.0, 360.0,
@@ -176,6 +323,7 @@ TYPES: dict[str, MateType] = {t.name: t for t in [
               "velocity": Option(0.1, 0.0, 1e3, open_low=True, doc="max sliding speed, m/s (> 0)"),
               "angular_velocity": Option(3.0, 0.0, 1e4, open_low=True, doc="max turning speed, rad/s (> 0)"),
               "depth": _DEPTH, "features": _FEAT, "male": _MALE},
+             macro="cylindrical",
              doc="slide along and turn about frame Z (2 DOF): a round shaft of diameter d in a "
                  "bore deep enough for the travel (a collar on a column: male=\"parent\")"),
 ]}
@@ -236,7 +384,7 @@ def check_options(mate: str, mtype: MateType, fit: str, options: dict[str, Any])
 def _check_limits(mate: str, mtype: MateType, value: Any, key: str = "limits"
                   ) -> tuple[float, float] | None:
     if value is None:
-        if key == "limits" and mtype.name in ("prismatic", "cylindrical"):
+        if key == "limits" and mtype.needs_limits:
             raise MateError(mate, f"a {mtype.name} mate needs limits=(lo, hi) in mm")
         return None
     try:

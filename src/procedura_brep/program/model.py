@@ -16,6 +16,8 @@ from typing import Any
 import numpy as np
 
 from ..findings import Finding, cap_text, failed  # noqa: F401 - Finding, cap_text re-exported
+from ..mates.kinds import Motion
+from ..mates.vocabulary import TYPES
 from ..materials import MATERIALS, Material, default_library, get, library_to_json
 
 _MESHES: dict[str, Any] = {}
@@ -108,7 +110,7 @@ class CompiledMate:
 
     @property
     def limits(self) -> Any:
-        if self.type == "spherical":
+        if self.type in TYPES and TYPES[self.type].motion is Motion.BALL:
             return {"cone_deg": self.options.get("cone")}
         return self.options.get("limits")
 

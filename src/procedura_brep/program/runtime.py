@@ -27,6 +27,7 @@ from ..errors import MateError, ProceduraError, ProgramFormatError
 from ..findings import failed
 from ..mates import check_options, get_type
 from ..mates import placement as pl
+from ..mates.kinds import Motion
 from . import cache, caps, guards, keys, policy, registry
 from .model import CompiledMate, CompiledModel, CompiledPart, Finding, cap_text
 from .sections import parse_sections
@@ -437,7 +438,7 @@ def _place_by_joint(carriers: dict[str, Any], reg: registry.Registry, m: dict[st
             joint = kinematic(mtype.name, parent, child, fp, fc, decl.name,
                               limits=opts.get("limits"), cone=opts.get("cone"),
                               angle_limits=opts.get("angle_limits"),
-                              home=home if mtype.name == "cylindrical" else (0.0, 0.0))
+                              home=home if mtype.motion is Motion.SLIDE_TURN else (0.0, 0.0))
             joint.move(home)
         else:
             rigid_place(parent, child, fp, fc, decl.name)

@@ -105,7 +105,7 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
     rows, problems, worst_traj = {}, [], []
     worst_reach, worst_pen, worst_sep = 1.0, 0.0, 0.0
     for j in art.joints:
-        if j.type == "spherical":
+        if j.kind.ball:
             hit = scene.sweep(j)
             rows[j.name] = {"cone_deg": float(np.degrees(j.upper)),
                             "worst_direction_deg": hit.value[0] if hit.value else None,

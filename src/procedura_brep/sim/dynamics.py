@@ -44,7 +44,7 @@ def warnings_of(d) -> dict[str, int]:
 def exported_names(art: Articulation) -> list[str]:
     """The MuJoCo joint names: a spherical joint's own, every other joint's 1-DOF joints
     (a cylindrical joint's ``__slide`` and ``__turn``)."""
-    return [n for j in art.joints for n in ([j.name] if j.type == "spherical"
+    return [n for j in art.joints for n in ([j.name] if j.kind.ball
                                              else [d.name for d in j.dofs()])]
 
 
@@ -93,7 +93,7 @@ def check_b1(m, art: Articulation) -> tuple[CheckResult, list[np.ndarray]]:
             traj.append(d.qpos.copy())
     free = _free_dof(m)
     jid, _ = _ids(m, art)
-    balls = {j.name for j in art.joints if j.type == "spherical"}
+    balls = {j.name for j in art.joints if j.kind.ball}
     speeds = {n: float(np.abs(d.qvel[m.jnt_dofadr[i]:m.jnt_dofadr[i] + (3 if n in balls else 1)]).max())
               for n, i in jid.items() if i >= 0}
     worst = max(speeds, key=speeds.get) if speeds else None

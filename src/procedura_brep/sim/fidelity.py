@@ -16,10 +16,12 @@ import numpy as np
 from ..articulation.mass import MassProps
 from ..config import TOL
 from ..articulation.tree import Articulation
+from ..mates.kinds import JOINT_KINDS, REVOLUTE
 from .report import CheckResult
 
 
-MJ_TYPES = {"revolute": "hinge", "continuous": "hinge", "prismatic": "slide", "spherical": "ball"}
+#: ``{joint type: MuJoCo joint type}`` of every kind exported as one MuJoCo joint.
+MJ_TYPES = {k.name: k.mjcf for k in JOINT_KINDS.values() if k.mjcf is not None}
 
 
 def angle(a: np.ndarray, b: np.ndarray) -> float:
@@ -39,7 +41,7 @@ def expected_frames(art: Articulation, world: np.ndarray | None = None
     for j in art.joints:
         f = inv @ j.frame
         out[j.name] = (f[:3, 3] / 1000.0, f[:3, 2] / np.linalg.norm(f[:3, 2]))
-        if j.type == "cylindrical":
+        if j.kind.compound:
             for d in j.dofs():
                 out[d.name] = out[j.name]
     return out
@@ -49,8 +51,8 @@ def mj_joint_types(art: Articulation) -> dict[str, str]:
     """``{exported joint name: MuJoCo type}`` the mate graph asks for."""
     out = {}
     for j in art.joints:
-        if j.type == "spherical":
-            out[j.name] = "ball"
+        if j.kind.ball:
+            out[j.name] = str(j.kind.mjcf)
         for d in j.dofs():
             out[d.name] = MJ_TYPES[d.type]
     return out
@@ -62,7 +64,7 @@ def compare_frames(art: Articulation, got: dict[str, tuple[np.ndarray, np.ndarra
     """(max anchor error m, max axis error rad, worst-anchor joint, worst-axis joint)."""
     da = dr = 0.0
     wa = wr = None
-    spherical = {j.name for j in art.joints if j.type == "spherical"}
+    spherical = {j.name for j in art.joints if j.kind.ball}
     for name, (anchor, axis) in expected.items():
         if name not in got:
             continue
@@ -127,10 +129,10 @@ def check_b0(art: Articulation, m) -> CheckResult:
 def _urdf_strict_types(art: Articulation) -> dict[str, str]:
     out = {}
     for j in art.joints:
-        if j.type == "spherical":
-            out.update({f"{j.name}__{a}": "revolute" for a in "xyz"})
+        if j.kind.ball:  # the strict profile's three revolutes (see ..export.urdf)
+            out.update({f"{j.name}__{a}": str(REVOLUTE.urdf) for a in "xyz"})
         else:
-            out.update({d.name: d.type for d in j.dofs()})
+            out.update({d.name: str(d.kind.urdf) for d in j.dofs()})
     return out
 
 

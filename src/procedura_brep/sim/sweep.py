@@ -44,7 +44,8 @@ from scipy.spatial import cKDTree
 from .. import kernel
 from ..articulation.tree import Articulation, Joint
 from ..config import TOL
-from ..mates.placement import delta, rigid_inverse, rot_x, rot_z, trans
+from ..mates.kinds import CONTINUOUS, PRISMATIC, REVOLUTE, Motion
+from ..mates.placement import motion_delta, rigid_inverse, rot_x, rot_z, trans
 from ..program.model import CompiledModel
 from .cells import Cover, cover
 from .contact import Overlap, exact_overlap
@@ -119,12 +120,12 @@ def joint_values(joint: Joint, radius_mm: float, extra: tuple[float, ...] = ()) 
     between two; a continuous joint covers one full turn. Values in ``extra`` (a MuJoCo
     overshoot) are added where they lie outside the commanded range."""
     step_mm = TOL.sweep_step_mm
-    if joint.type == "continuous":
+    if joint.kind.endless:
         n = max(4, math.ceil(2 * math.pi * max(radius_mm, 0.0) / step_mm))
         n = min(n, MAX_PAIR_SAMPLES)
         return (np.arange(n) * (2 * math.pi / n)).tolist()
     lo, hi = float(joint.lower), float(joint.upper)  # type: ignore[arg-type]
-    if joint.type == "revolute":
+    if joint.kind.turns:
         n = math.ceil((hi - lo) * max(radius_mm, 0.0) / step_mm) + 1
     else:
         n = math.ceil((hi - lo) * 1000.0 / step_mm) + 1
@@ -134,15 +135,15 @@ def joint_values(joint: Joint, radius_mm: float, extra: tuple[float, ...] = ()) 
 
 def motion(joint: Joint, q: float) -> np.ndarray:
     """World 4x4 motion (mm) of ``joint``'s child subtree at value ``q`` (rad or m)."""
-    if joint.type == "prismatic":
-        d = delta("prismatic", q * 1000.0)
+    if joint.kind.slides:
+        d = motion_delta(Motion.SLIDE, q * 1000.0)
     else:
-        d = delta("revolute", math.degrees(q))
+        d = motion_delta(Motion.TURN, math.degrees(q))
     return joint.frame @ d @ rigid_inverse(joint.frame)
 
 
 def label(joint: Joint, q: float) -> str:
-    return f"{q * 1000:.4g} mm" if joint.type == "prismatic" else f"{math.degrees(q):.4g} deg"
+    return joint.kind.label(q)
 
 
 def samples(joint: Joint, extra: tuple[float, ...] = (), *, radius_mm: float = 0.0) -> list[Sample]:
@@ -150,7 +151,7 @@ def samples(joint: Joint, extra: tuple[float, ...] = (), *, radius_mm: float = 0
     axis (see :func:`joint_values`); a spherical joint's tilts do not depend on the radius."""
     f, f_inv = joint.frame, rigid_inverse(joint.frame)
     out: list[Sample] = []
-    if joint.type == "spherical":
+    if joint.kind.ball:
         cone = float(joint.upper or 0.0)
         for frac in SPHERE_FRACTIONS:
             for k in range(SPHERE_DIRECTIONS):
@@ -160,7 +161,7 @@ def samples(joint: Joint, extra: tuple[float, ...] = (), *, radius_mm: float = 0
                 out.append(Sample(f"tilt {tilt:.3g} deg about direction {phi:.0f} deg",
                                   f @ d @ f_inv, (phi, frac * cone)))
         return out
-    if joint.type not in ("revolute", "prismatic", "continuous"):
+    if not (joint.kind.turns or joint.kind.slides):
         return out
     return [Sample(label(joint, q), motion(joint, q), q) for q in joint_values(joint, radius_mm, extra)]
 
@@ -215,7 +216,7 @@ class SweepScene:
         with a revolute or continuous ``joint``, without the faces its rotation leaves in
         place (:mod:`.cells`)."""
         axis = None
-        if joint is not None and joint.type in ("revolute", "continuous"):
+        if joint is not None and joint.kind.turns:
             axis = (joint.frame[:3, 3].copy(), joint.axis)
         key = (name, b"" if axis is None else np.round(np.concatenate(axis), 9).tobytes())
         if key not in self._cover:
@@ -266,9 +267,9 @@ class SweepScene:
         return self._rest[key]
 
     def _invariant_dirs(self, joint: Joint) -> list[np.ndarray]:
-        if joint.type in ("revolute", "continuous"):
+        if joint.kind.turns:
             return [joint.frame[:3, 2]]
-        if joint.type == "prismatic":
+        if joint.kind.slides:
             return [joint.frame[:3, 0], joint.frame[:3, 1]]
         return []
 
@@ -282,14 +283,14 @@ class SweepScene:
         """False if ``a``'s swept envelope over the whole joint range cannot reach ``b``'s box."""
         ca, cb = self._corners_in(a, frame_inv), self._corners_in(b, frame_inv)
         blo, bhi = cb.min(axis=0) - TOL.sweep_box_slack_mm, cb.max(axis=0) + TOL.sweep_box_slack_mm
-        if joint.type == "prismatic":
+        if joint.kind.slides:
             lo, hi = ca.min(axis=0), ca.max(axis=0)
             lo[2] += 1000.0 * min(0.0, float(joint.lower))  # type: ignore[arg-type]
             hi[2] += 1000.0 * max(0.0, float(joint.upper))  # type: ignore[arg-type]
             return bool(np.all(lo <= bhi) and np.all(blo <= hi))
         # the box point nearest the joint origin (spherical) or axis (revolute)
         near = np.clip(0.0, blo, bhi)
-        if joint.type == "spherical":
+        if joint.kind.ball:
             return float(np.linalg.norm(near)) <= float(np.linalg.norm(ca, axis=1).max())
         r_a = float(np.linalg.norm(ca[:, :2], axis=1).max())
         z_ok = ca[:, 2].min() <= bhi[2] and blo[2] <= ca[:, 2].max()
@@ -330,7 +331,7 @@ class SweepScene:
         pa = ca.centres @ inv[:3, :3].T + inv[:3, 3]
         pb = cb.centres @ inv[:3, :3].T + inv[:3, 3]
         reach = ca.radius + cb.radius
-        if joint.type == "prismatic":  # the orbit of a point is a line along the axis
+        if joint.kind.slides:  # the orbit of a point is a line along the axis
             qa, qb = pa[:, :2], pb[:, :2]
         else:  # a circle about the axis: radius and height
             qa = np.column_stack([np.linalg.norm(pa[:, :2], axis=1), pa[:, 2]])
@@ -339,15 +340,15 @@ class SweepScene:
         near = np.isfinite(dist)
         if not near.any():
             return ca.centres[:0], 0.0
-        radius = 0.0 if joint.type == "prismatic" else float(qa[near, 0].max()) + ca.radius
+        radius = 0.0 if joint.kind.slides else float(qa[near, 0].max()) + ca.radius
         return ca.centres[near], radius
 
     def sweep(self, joint: Joint, extra: tuple[float, ...] = ()) -> SweepHit:
         """The deepest new exact interference over the joint's samples; a sweep that spends
         ``TOL.sweep_max_booleans`` stops there (:attr:`SweepHit.stopped`)."""
-        if joint.type == "spherical":
+        if joint.kind.ball:
             return self._sweep_ball(joint)
-        if joint.type == "cylindrical":
+        if joint.kind.compound:
             return self._sweep_cylindrical(joint)
         hit = SweepHit(joint.name)
         start = self._joint_start = self.booleans
@@ -380,11 +381,11 @@ class SweepScene:
         (ca, _), (cb, tb) = self.cover(a, joint), self.cover(b)
         inv = rigid_inverse(joint.frame)
         local = cells @ inv[:3, :3].T + inv[:3, 3]
-        if joint.type == "prismatic":  # mm of travel per metre of joint value
+        if joint.kind.slides:  # mm of travel per metre of joint value
             lever = np.full(len(cells), 1000.0)
         else:  # mm per radian
             lever = np.linalg.norm(local[:, :2], axis=1) + ca.radius
-        if joint.type == "continuous":
+        if joint.kind.endless:
             lo, hi = 0.0, 2 * math.pi
         else:
             lo, hi = float(joint.lower), float(joint.upper)  # type: ignore[arg-type]
@@ -424,7 +425,7 @@ class SweepScene:
                 break
             adv = max(float(np.min((np.maximum(gap, 0.0) + step) / lever)), min_adv)
             q = min(q + adv, hi)
-            if joint.type == "continuous" and q >= hi - 1e-12:
+            if joint.kind.endless and q >= hi - 1e-12:
                 break  # a full turn: 2 pi is the first pose again
         return poses
 
@@ -445,7 +446,7 @@ class SweepScene:
         from OCP.gp import gp_Pnt
         grow = self.cover(a, joint)[0].radius + TOL.sweep_step_mm + TOL.sweep_box_slack_mm
         zlo, zhi = float(local[:, 2].min()) - grow, float(local[:, 2].max()) + grow
-        if joint.type == "prismatic":  # stretched by the travel (``span``, m)
+        if joint.kind.slides:  # stretched by the travel (``span``, m)
             zlo += 1000.0 * min(0.0, span[0])
             zhi += 1000.0 * max(0.0, span[1])
             xlo, ylo = local[:, :2].min(axis=0) - grow
@@ -467,8 +468,8 @@ class SweepScene:
         value (the slide at the home angle, the turn at the home position), each spaced as a
         prismatic or revolute joint's; the worst of the two."""
         import dataclasses
-        slide = dataclasses.replace(joint, type="prismatic")
-        turn = dataclasses.replace(joint, type="continuous" if joint.turn_lower is None else "revolute",
+        slide = dataclasses.replace(joint, type=PRISMATIC.name)
+        turn = dataclasses.replace(joint, type=(CONTINUOUS if joint.turn_lower is None else REVOLUTE).name,
                                    lower=joint.turn_lower, upper=joint.turn_upper)
         hits = [self.sweep(slide), self.sweep(turn)]
         worst = max(range(2), key=lambda k: hits[k].depth)
