@@ -259,7 +259,9 @@ TYPES: dict[str, MateType] = {t.name: t for t in [
               "angle0": Option(0.0, -360.0, 360.0, doc="angle of the first stud from +X, deg"),
               "features": _FEAT, "male": _MALE},
              macro="flange", pcd_factor=1.5,
-             doc="pilot spigot of diameter d plus a ring of studs, into a pilot recess and holes"),
+             doc="pilot spigot of diameter d and height max(0.5, 0.06 d) mm plus a ring of studs "
+                 "(M-size `bolt`, each 1.5 bolt long), all reaching along -Z from the frame into a "
+                 "pilot recess and clearance holes in the parent"),
     MateType("tab_slot", "static", STATIC_DOF, ("clearance", "location", "press"), "location",
              {"thickness": Option(None, 0.1, 1000.0, doc="tab thickness, mm (default 0.25 d)"),
               "depth": _DEPTH, "features": _FEAT, "male": _MALE},
@@ -302,7 +304,9 @@ TYPES: dict[str, MateType] = {t.name: t for t in [
              doc="1 translational DOF along frame Z: a square guide bar of side d reaching depth "
                  "along -Z into a slot that is deepened by the negative travel; positive values "
                  "move the child out along +Z, so keep the upper limit below depth or the bar "
-                 "leaves its slot (for a long slide, use features=False and model the ways)"),
+                 "leaves its slot; the bar is centred on the frame's Z axis, so for a slide along a "
+                 "face (a gripper finger across a palm) put the frame at least d/2 inside the parent "
+                 "(for a long slide, use features=False and model the ways)"),
     SphericalType("spherical", "kinematic", Dof(rotation=("x", "y", "z")), ("clearance", "location"),
              "clearance",
              {"cone": Option(30.0, 0.1, 180.0, doc="cone half-angle limit, deg"),
