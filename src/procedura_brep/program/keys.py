@@ -151,14 +151,16 @@ def _opaque(stmt: ast.stmt) -> str | None:
     return f"a module-level {type(stmt).__name__.lower()} statement"
 
 
-def scan_module(source: str) -> ModuleScan:
-    """Index the program's functions and list its opaque module-level statements."""
+def scan_module(source: str, tree: ast.Module | None = None) -> ModuleScan:
+    """Index the program's functions and list its opaque module-level statements (``tree``:
+    ``source`` already parsed)."""
     scan = ModuleScan()
-    try:
-        tree = ast.parse(source)
-    except SyntaxError:
-        scan.opaque.append((0, "a syntax error"))
-        return scan
+    if tree is None:
+        try:
+            tree = ast.parse(source)
+        except SyntaxError:
+            scan.opaque.append((0, "a syntax error"))
+            return scan
     body = tree.body
     if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) \
             and isinstance(body[0].value.value, str):

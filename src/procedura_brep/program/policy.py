@@ -58,12 +58,16 @@ class PolicyViolation(ProgramFormatError):
     """The program uses a construct the sandbox forbids."""
 
 
-def check(source: str, filename: str = "<program>") -> None:
-    """Raise :class:`PolicyViolation` (with the line) at the first forbidden construct."""
-    try:
-        tree = ast.parse(source, filename=filename)
-    except SyntaxError as exc:
-        raise ProgramFormatError(f"syntax error: {exc.msg}", line=exc.lineno) from None
+def check(source: str, filename: str = "<program>", *, tree: ast.Module | None = None) -> None:
+    """Raise :class:`PolicyViolation` (with the line) at the first forbidden construct.
+
+    ``tree`` is ``source`` already parsed (:attr:`.sections.Sections.tree`); it is what the
+    compiler then runs, so the policy checks exactly the code that runs."""
+    if tree is None:
+        try:
+            tree = ast.parse(source, filename=filename)
+        except SyntaxError as exc:
+            raise ProgramFormatError(f"syntax error: {exc.msg}", line=exc.lineno) from None
     for node in ast.walk(tree):
         _check_node(node)
     bound = _bound_names(tree)

@@ -12,6 +12,7 @@ program runs and compared after: a program that wrote into one fails (nothing is
 
 from __future__ import annotations
 
+import ast
 import builtins
 import contextvars
 import math
@@ -151,7 +152,7 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     t0 = time.perf_counter()
     try:
         sections = parse_sections(source)
-        policy.check(source)
+        policy.check(source, tree=sections.tree)
         known: set[str] = set()
         for p in sections.params.values():
             policy.check_param_expr(p.expr, line=p.line, known=known)
@@ -163,7 +164,7 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     glb = restricted_globals()
     tables = guards.baseline()
     try:
-        contextvars.Context().run(_exec_module, b, source, glb)
+        contextvars.Context().run(_exec_module, b, sections.tree, glb)
     finally:
         registry.pop()
     params = {k: glb.get(k) for k in sections.params}
@@ -178,7 +179,7 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     if failed(b.findings):
         return CompiledModel(name, params, [], [], b.findings, b.timings)
     mates = _resolve_mates(b, reg, params)
-    scan = keys.scan_module(source)
+    scan = keys.scan_module(source, sections.tree)
     volatile: set[str] = set()
     part_keys = keys.part_keys(source, reg, params, mates, glb, scan=scan, volatile=volatile)
     hits = _load_cached(b, part_keys, cache_dir)
@@ -201,10 +202,11 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     return _serialise(b, reg, params, mates, time.perf_counter() - t0, part_keys)
 
 
-def _exec_module(b: _Build, source: str, glb: dict[str, Any]) -> None:
-    """Run the module body (in its own context: see the module docstring)."""
+def _exec_module(b: _Build, tree: ast.Module, glb: dict[str, Any]) -> None:
+    """Run the module body, the very tree the policy checked (in its own context: see the
+    module docstring)."""
     try:
-        exec(compile(source, "<program>", "exec"), glb)  # noqa: S102 - policy-checked, sandboxed
+        exec(compile(tree, "<program>", "exec"), glb)  # noqa: S102 - policy-checked, sandboxed
     except ProceduraError as exc:
         b.fail("declaration", str(exc), line=getattr(exc, "line", None) or _program_line(sys.exc_info()[2]),
                mate=getattr(exc, "mate", None))

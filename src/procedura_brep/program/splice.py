@@ -232,7 +232,7 @@ class _Program:
     @classmethod
     def read(cls, source: str) -> _Program:
         sec = parse_sections(source)
-        tree = ast.parse(source)
+        tree = sec.tree or ast.parse(source)
         params: dict[str, ast.Assign] = {}
         helpers: dict[str, ast.stmt] = {}
         parts: list[str] = []
