@@ -45,11 +45,30 @@ class Painted:
     unpainted: Any
     solids_before: int
     blocks: list[Block]
+    data: bytes = b""
 
 
 def _count(solid: Any) -> int:
     from .. import kernel
     return len(kernel.solids(solid.wrapped))
+
+
+def _volume(shape: Any) -> float:
+    """Volume of a build123d shape, mm^3; 0 for an empty result (a boolean that kept nothing)."""
+    from .. import kernel
+    try:
+        wrapped = shape.wrapped
+    except AssertionError:  # build123d asserts on an empty compound's wrapped shape
+        return 0.0
+    return kernel.volume(wrapped) if wrapped is not None and not wrapped.IsNull() else 0.0
+
+
+def _from_brep(data: bytes) -> Any:
+    from build123d import Compound, Solid
+
+    from .. import kernel
+    shape = kernel.read_brep(data)
+    return Compound(shape) if shape.ShapeType().name == "TopAbs_COMPOUND" else Solid(shape)
 
 
 def _region(b: Any, decl: PaintDecl) -> Any:
@@ -117,13 +136,17 @@ def _paint_one(b: Any, reg: Registry, mates: list[dict[str, Any]], decl: PaintDe
         return
     state = painted.get(decl.part)
     if state is None:
-        state = Painted(solid, _count(solid), [])
-    v0 = kernel.volume(state.unpainted.wrapped)
+        # paint the solid exactly as the cache stores it (its BRep bytes read back), so a cold
+        # compile and a cache hit cut the same blocks, byte for byte
+        data = b.cached_bytes.get(decl.part) or kernel.write_brep(kernel.bake_location(solid.wrapped))
+        solid = _from_brep(data)
+        state = Painted(solid, _count(solid), [], data)
+    v0 = _volume(state.unpainted)
     floor = MATERIAL.paint_min_fraction * v0
     try:
         block = solid & region
         rest = solid - region
-        vb, vr = kernel.volume(block.wrapped), kernel.volume(rest.wrapped)
+        vb, vr = _volume(block), _volume(rest)
     except Exception as exc:  # noqa: BLE001 - an OCCT boolean failure is a finding
         fail(f"cutting the region failed: {_exc_text(exc)}")
         return
@@ -137,8 +160,8 @@ def _paint_one(b: Any, reg: Registry, mates: list[dict[str, Any]], decl: PaintDe
         return
     for mate_name, tool in _feature_tools(b, reg, mates, decl.part):
         try:
-            vt = kernel.volume(tool.wrapped)
-            cut = kernel.volume((region & tool).wrapped)
+            vt = _volume(tool)
+            cut = _volume(region & tool)
         except Exception:  # noqa: BLE001 - a failed probe is not a verdict
             continue
         if cut > MATERIAL.paint_min_fraction * max(vt, 1.0):
@@ -151,7 +174,7 @@ def _paint_one(b: Any, reg: Registry, mates: list[dict[str, Any]], decl: PaintDe
     b.solids[decl.part] = rest
     state.blocks.append(Block(decl, block))
     painted[decl.part] = state
-    total = vr + sum(kernel.volume(k.solid.wrapped) for k in state.blocks)
+    total = vr + sum(_volume(k.solid) for k in state.blocks)
     rel = abs(total - v0) / v0 if v0 > 0 else 0.0
     if rel > MATERIAL.paint_volume_rtol:
         b.fail("paint-volume", f"{where}: the blocks and the rest of {decl.part} add up to "
@@ -182,7 +205,7 @@ def with_blocks(b: Any, parts: list[CompiledPart], painted: dict[str, Painted]) 
         state = painted.get(p.name)
         if state is None:
             continue
-        p.unpainted = kernel.write_brep(kernel.bake_location(state.unpainted.wrapped))
+        p.unpainted = state.data
         p.pieces = p.pieces + max(0, _count(b.solids[p.name]) - state.solids_before)
         for k in state.blocks:
             desc = k.decl.description or f"{k.decl.material} block of {p.name}"
