@@ -23,11 +23,14 @@ from __future__ import annotations
 
 import contextvars
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..config import MATERIAL
 from .model import CompiledPart
 from .registry import PaintDecl, Registry
+
+if TYPE_CHECKING:
+    from .runtime import _Build
 
 
 @dataclass
@@ -71,7 +74,7 @@ def _from_brep(data: bytes) -> Any:
     return Compound(shape) if shape.ShapeType().name == "TopAbs_COMPOUND" else Solid(shape)
 
 
-def _region(b: Any, decl: PaintDecl) -> Any:
+def _region(b: _Build, decl: PaintDecl) -> Any:
     """The region the paint function returns, as a solid (raises on anything else)."""
     from . import guards
     from .runtime import _as_solid
@@ -81,7 +84,7 @@ def _region(b: Any, decl: PaintDecl) -> Any:
     return region
 
 
-def _feature_tools(b: Any, reg: Registry, mates: list[dict[str, Any]], part: str) -> list[tuple[str, Any]]:
+def _feature_tools(b: _Build, reg: Registry, mates: list[dict[str, Any]], part: str) -> list[tuple[str, Any]]:
     """(mate name, feature solid in the part's local coordinates) for each mate half that the
     compiler added to or cut from ``part``."""
     from ..mates import features
@@ -103,7 +106,7 @@ def _feature_tools(b: Any, reg: Registry, mates: list[dict[str, Any]], part: str
     return out
 
 
-def _paint_one(b: Any, reg: Registry, mates: list[dict[str, Any]], decl: PaintDecl,
+def _paint_one(b: _Build, reg: Registry, mates: list[dict[str, Any]], decl: PaintDecl,
                painted: dict[str, Painted]) -> None:
     from .. import kernel
     from .runtime import _exc_text
@@ -184,7 +187,7 @@ def _paint_one(b: Any, reg: Registry, mates: list[dict[str, Any]], decl: PaintDe
                part=decl.name, line=decl.line, value=rel, limit=MATERIAL.paint_volume_rtol)
 
 
-def apply_paint(b: Any, reg: Registry, mates: list[dict[str, Any]]) -> dict[str, Painted]:
+def apply_paint(b: _Build, reg: Registry, mates: list[dict[str, Any]]) -> dict[str, Painted]:
     """Cut every ``@paint`` block from its part (``b.solids`` is updated in place); returns the
     painted parts. A painted part's cached bytes are dropped (its serialised solid changes)."""
     painted: dict[str, Painted] = {}
@@ -195,7 +198,7 @@ def apply_paint(b: Any, reg: Registry, mates: list[dict[str, Any]]) -> dict[str,
     return painted
 
 
-def with_blocks(b: Any, parts: list[CompiledPart], painted: dict[str, Painted]) -> list[CompiledPart]:
+def with_blocks(b: _Build, parts: list[CompiledPart], painted: dict[str, Painted]) -> list[CompiledPart]:
     """``parts`` with each painted part's blocks right after it, and the painted part carrying
     its unpainted solid (for the cache) and the pieces its blocks split it into."""
     from .. import kernel
