@@ -261,6 +261,13 @@ class MaterialLimits:
         subparts_triangle_tol: the materials stage's sub-part pass may rewrite a part only if
             the rewritten part's triangle count (at the fixed meshing tolerance) stays within
             this fraction of the original's, so paint never changes shape.
+        paint_volume_rtol: a colour block (``@paint``) conserves volume: the blocks plus the
+            rest of the painted part must add up to the unpainted part within this fraction of
+            its volume (the booleans are exact; this only absorbs OCCT's volume integration).
+        paint_min_fraction: a block smaller than this fraction of the unpainted part's volume
+            is a region that misses the part; a rest smaller than it leaves the part empty. A
+            region that takes more than this fraction of a mate feature's volume cuts the
+            feature away.
         reply_attempts: tries of a materials, material_critic or subparts call whose reply does not parse
             (each retry is told the parse error).
     """
@@ -268,6 +275,8 @@ class MaterialLimits:
     density_range: tuple[float, float] = (1.0, 25_000.0)
     max_declared: int = 64
     subparts_triangle_tol: float = 0.02
+    paint_volume_rtol: float = 1e-6
+    paint_min_fraction: float = 1e-6
     reply_attempts: int = 2
 
 

@@ -10,10 +10,14 @@ and, when it changes the program, in ``history/``:
    error and every part's geometry digest is unchanged (paint never changes shape).
 2. ``material_critic``: sees a PBR render (albedo, metalness, roughness) with the legend (part,
    material, values) and corrects the assignment; applied and gated the same way.
-3. ``subparts``: may rewrite parts to split them into colour blocks; a rewrite is refused when
-   the part's triangle count moves beyond ``config.MATERIAL.subparts_triangle_tol`` of the
-   original's, or when it fails the part gates. (A rewritten part still carries one material:
-   per-face or per-solid materials inside one part are not in the program format yet.)
+3. ``subparts``: may split parts into colour blocks (``PAINT part``: ``@paint`` functions
+   spliced after the part, :mod:`procedura_brep.agent.subparts`) or rewrite them (``REWRITE
+   part``). A paint is refused when the program no longer compiles cleanly (a region that
+   misses the part or reaches into a mate feature is a compile finding), when the part's gates
+   fail, when another part's geometry changes, or when the part and its blocks do not add up
+   to the part's volume before (``config.MATERIAL.paint_volume_rtol``); a rewrite is refused
+   when the part's triangle count moves beyond ``config.MATERIAL.subparts_triangle_tol`` of
+   the original's, or when it fails the part gates.
 
 A stage that cannot use a reply keeps the program as it was and says why in the report.
 """
@@ -39,10 +43,10 @@ from .paint import (
     declared_entries,
     merge,
     parse_assignment,
-    parse_rewrites,
 )
 from .prompts import template
 from .refine import Host, findings_text
+from .subparts import SubpartEdit, parse_subparts, splice_paint
 
 #: Views the materials calls see (parts colours for the library, PBR for the critic).
 MATERIAL_VIEWS: tuple[str, ...] = ("iso_se", "iso_nw")
@@ -261,27 +265,30 @@ def _subparts_step(bench: MaterialsBench, size: int) -> None:
         views = pbr_views(bench.model, size)
     except (ProceduraError, ValueError):
         views = []
+    library = set(bench.model.materials)
     msgs = [Message.user(f"Object: {host.prompt}\n\nLegend (part: material and its values):\n"
-                         f"{legend(bench.model)}\n\nThe program:\n```python\n{bench.source}```",
-                         *host._refs(), *views)]
-    parsed, attempts, errors = bench.ask("subparts", system, msgs,
-                                         lambda t: parse_rewrites(t, parts=bench.parts))
+                         f"{legend(bench.model)}\n\nThe run's library (the materials a PAINT may "
+                         f"use):\n{library_text(bench.model)}\n\nThe program:\n```python\n"
+                         f"{bench.source}```", *host._refs(), *views)]
+    parsed, attempts, errors = bench.ask(
+        "subparts", system, msgs, lambda t: parse_subparts(t, parts=bench.parts, library=library))
     step: dict[str, Any] = {"step": "subparts", "attempts": attempts, "parse_errors": errors,
                             "tolerance": tol, "rewrites": []}
     if parsed is None:
         bench.steps.append({**step, "ok": False, "reason": "no usable reply; parts kept"})
         return
-    for part, text in parsed:
-        row = _rewrite(bench, part, text, tol)
+    for edit in parsed:
+        row = _paint(bench, edit) if edit.kind == "paint" else _rewrite(bench, edit.part, edit.text, tol)
         step["rewrites"].append(row)
-        host.progress(STAGE, f"subparts {part}: " + ("accepted" if row["accepted"] else row["reason"]))
+        host.progress(STAGE, f"subparts {edit.kind} {edit.part}: "
+                      + ("accepted" if row["accepted"] else row["reason"]))
     step["ok"] = True  # a refused rewrite is a verdict of the gate, not a failure of the stage
     bench.steps.append(step)
 
 
 def _rewrite(bench: MaterialsBench, part: str, text: str, tol: float) -> dict[str, Any]:
     """Gate one sub-part rewrite: splice, compile, triangle count, the part gates."""
-    row: dict[str, Any] = {"part": part, "accepted": False}
+    row: dict[str, Any] = {"part": part, "kind": "rewrite", "accepted": False}
     try:
         result = replace_part(bench.source, text)
     except SpliceError as exc:
@@ -305,6 +312,57 @@ def _rewrite(bench: MaterialsBench, part: str, text: str, tol: float) -> dict[st
     bench.entries = declared_entries(result.source, verdict.model.materials)
     bench.history(f"subparts-{part}")
     return {**row, "accepted": True}
+
+
+def library_text(model: CompiledModel) -> str:
+    """The run's library, one line per material (the program's own first, then built-ins)."""
+    own = [m for m in model.materials.values() if m.name in model.declared_materials]
+    rest = [m for m in model.materials.values() if m.name not in model.declared_materials]
+    return "\n".join(f"- {m.name}: {m.material_class}, rgb {_rgb(m.rgb)}, metalness {m.metalness:g}, "
+                     f"roughness {m.roughness:g}" for m in own + rest)
+
+
+def _family_volume(model: CompiledModel, part: str) -> float:
+    """The volume of ``part`` and every colour block painted on it, mm^3."""
+    from .. import kernel
+    return sum(kernel.volume(p.local_shape()) for p in model.parts if p.owner == part)
+
+
+def _paint(bench: MaterialsBench, edit: SubpartEdit) -> dict[str, Any]:
+    """Gate one PAINT: splice, compile with no blocking finding, every block cut from the part,
+    the part's gates, no other part's geometry changed, volume conserved."""
+    part = edit.part
+    row: dict[str, Any] = {"part": part, "kind": "paint", "blocks": list(edit.blocks), "accepted": False}
+    try:
+        source = splice_paint(bench.source, part, edit.text)
+    except PaintError as exc:
+        return {**row, "reason": f"refused: {exc}"}
+    verdict = bench.host.tools.gate_part(source, part, baseline=_n_vis(bench), name=bench.host.name)
+    model = verdict.model
+    errors = blocking(model.findings) if model is not None else []
+    if not verdict.compiled or model is None or errors:
+        return {**row, "reason": "refused: " + findings_text(errors or verdict.errors, 4).replace("\n", " ")}
+    got = {p.name: p for p in model.parts}
+    missing = [b for b in edit.blocks if b not in got or got[b].block_of != part]
+    if missing:
+        return {**row, "reason": f"refused: no block {', '.join(missing)} was cut from {part}"}
+    if verdict.errors:
+        return {**row, "reason": "refused: " + findings_text(verdict.errors, 4).replace("\n", " ")}
+    moved = sorted(p.name for p in bench.model.parts
+                   if p.owner != part and (p.name not in got or got[p.name].digest != p.digest))
+    if moved:
+        return {**row, "reason": f"refused: the splice changed the shape of {', '.join(moved)}"}
+    before, after = _family_volume(bench.model, part), _family_volume(model, part)
+    rel = abs(after - before) / before if before > 0 else 0.0
+    row.update({"volume_before": round(before, 6), "volume_after": round(after, 6)})
+    if rel > MATERIAL.paint_volume_rtol:
+        return {**row, "reason": f"refused: {part} and its blocks hold {after:.6g} mm^3, not the "
+                                 f"{before:.6g} mm^3 it had (relative change {rel:.3g} > "
+                                 f"{MATERIAL.paint_volume_rtol:g}): paint never changes shape"}
+    bench.source, bench.model = source, model
+    bench.history(f"subparts-paint-{part}")
+    return {**row, "accepted": True,
+            "materials": {b: got[b].material for b in edit.blocks}}
 
 
 def _n_vis(bench: MaterialsBench) -> int:

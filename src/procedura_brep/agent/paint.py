@@ -12,7 +12,8 @@ A ``materials`` or ``material_critic`` reply is one JSON object (in a code fence
 ``base`` is a built-in material. The first call assigns every part; a critic's ``assign`` names only
 the parts it changes, and its ``library`` adds entries or replaces same-named ones. A ``subparts``
 reply is ``REWRITES: none`` or one ``REWRITE part_name`` line before each rewritten part's five
-blocks.
+blocks, or a ``PAINT part_name`` line before ``@paint`` functions
+(:mod:`procedura_brep.agent.subparts`).
 
 :func:`apply_materials` writes the library as ``material(...)`` lines at the top of the parts
 section (replacing every declaration the program had) and sets each assigned part's
@@ -224,8 +225,12 @@ def _offset(line_starts: list[int], lines: list[str], lineno: int, col: int) -> 
 
 
 def _decorator_edit(fn: ast.FunctionDef, material: str) -> tuple[ast.AST, str] | None:
-    """(node to replace, new text) that makes ``fn``'s ``@part`` name ``material``."""
+    """(node to replace, new text) that makes ``fn``'s ``@part`` (or a colour block's
+    ``@paint``) name ``material``."""
     for d in fn.decorator_list:
+        if isinstance(d, ast.Call) and isinstance(d.func, ast.Name) and d.func.id == "paint":
+            k = next((k for k in d.keywords if k.arg == "material"), None)
+            return (k.value, _text(material)) if k is not None else None
         if isinstance(d, ast.Name) and d.id == "part":
             return d, f"part(material={_text(material)})"
         if isinstance(d, ast.Call) and isinstance(d.func, ast.Name) and d.func.id == "part":

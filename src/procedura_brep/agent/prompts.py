@@ -17,12 +17,13 @@ def template(name: str) -> str:
 
 @lru_cache(maxsize=1)
 def reference() -> str:
-    """The program API reference: docstrings of material/part/frames/mate, mate types, materials."""
+    """The program API reference: docstrings of material/part/paint/frames/mate, mate types,
+    materials."""
     from .. import materials
     from ..mates import TYPES
     from ..program import api
     out = ["## The program API", inspect.cleandoc(api.__doc__ or "")]
-    for fn in (api.material, api.part, api.frames, api.mate):
+    for fn in (api.material, api.part, api.paint, api.frames, api.mate):
         out.append(f"### {fn.__name__}{inspect.signature(fn)}\n{inspect.cleandoc(fn.__doc__ or '')}")
     out.append("## Mate types (type: DOF; fits, default first; every option: default, range, meaning)")
     for t in TYPES.values():

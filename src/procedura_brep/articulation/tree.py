@@ -291,6 +291,12 @@ def _groups(model: CompiledModel) -> dict[str, str]:
         if a != b:
             keep, drop = (a, b) if order[a] < order[b] else (b, a)
             parent[drop] = keep
+    for p in model.parts:  # a colour block rides in its painted part's link
+        if p.block_of and p.block_of in parent:
+            a, b = find(p.name), find(p.block_of)
+            if a != b:
+                keep, drop = (a, b) if order[a] < order[b] else (b, a)
+                parent[drop] = keep
     return {p: find(p) for p in parent}
 
 

@@ -100,6 +100,7 @@ def analyse(model: CompiledModel, *, tau: float = TOL.span_tau, contact: float =
                      np.array([b[1] for b in boxes]).reshape(-1, 3), contact)
     # two passes: the cheap proofs of contact first (same solid, a registered mate, a shared
     # vertex), so the exact distance is asked only of pairs still in different components
+    _join_blocks(model, pieces, uf)
     exact = []
     for i, j in cand.tolist():
         gi, pi = pieces[i]
@@ -134,6 +135,19 @@ def analyse(model: CompiledModel, *, tau: float = TOL.span_tau, contact: float =
     floaters = sorted((c for k, c in enumerate(comps) if k != body and c.rho >= tau),
                       key=lambda c: -c.rho)
     return Connectivity(comps, body, len(floaters), floaters, span)
+
+
+def _join_blocks(model: CompiledModel, pieces: list[tuple[int, Piece]], uf: _UF) -> None:
+    """A colour block (``@paint``) is attached to its painted part: every piece of a block
+    joins the first piece of the part it was cut from."""
+    first: dict[int, int] = {}
+    for k, (g, _) in enumerate(pieces):
+        first.setdefault(g, k)
+    index = {p.name: g for g, p in enumerate(model.parts)}
+    for k, (g, _) in enumerate(pieces):
+        owner = index.get(model.parts[g].block_of or "")
+        if owner is not None and owner in first:
+            uf.union(first[owner], k)
 
 
 def _fmt_box(c: Component) -> str:

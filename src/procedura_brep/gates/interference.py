@@ -132,6 +132,8 @@ def scan(model: CompiledModel) -> list[PairOverlap]:
     out = []
     for i, j in candidate_pairs(model):
         pa, pb = model.parts[i], model.parts[j]
+        if pa.owner == pb.owner:
+            continue  # a colour block and its painted part (or two of its blocks) share cut faces
         ga, gb = part_geometry(pa), part_geometry(pb)
         com = common(ga, pa.shape(), gb, pb.shape())
         mates = [m for m in model.mates if {m.child, m.parent} == {pa.name, pb.name}]

@@ -2,7 +2,7 @@
 
 A program starts with ``from procedura_brep.program import *``, which brings in build123d's
 modelling vocabulary (solids, sketches, operations, ``Location``, ``Axis``, ``Align`` ...),
-``math``, and the declarations below (``material``, ``part``, ``frames``, ``mate``). File import/export functions are *not* exported:
+``math``, and the declarations below (``material``, ``part``, ``paint``, ``frames``, ``mate``). File import/export functions are *not* exported:
 programs never touch files.
 
 Example (a complete two-part program)::
@@ -44,7 +44,7 @@ import inspect
 from typing import Any, Callable
 
 from ..errors import MateError, ProgramFormatError
-from .registry import DETAILS, MateDecl, PartDecl, active
+from .registry import DETAILS, MateDecl, PaintDecl, PartDecl, active
 
 #: Most disconnected solids a part may declare (``@part(pieces=N)``).
 MAX_PIECES: int = 1000
@@ -114,6 +114,47 @@ def part(*, detail: str = "major", material: str = "steel", description: str = "
         end = max((ln for _, _, ln in code.co_lines() if ln), default=code.co_firstlineno)
         active().add_part(PartDecl(fn.__name__, fn, detail, material, description,
                                    code.co_firstlineno, end, pieces))
+        return fn
+
+    return register
+
+
+def paint(part_name: str, *, material: str, description: str = ""
+          ) -> Callable[[Callable[[], Any]], Callable[[], Any]]:
+    """Paint a region of a part in another material: a **colour block**. The block's name is
+    the function's name (snake_case, unique among parts and blocks).
+
+    The function takes no arguments and returns the REGION, a build123d solid in the painted
+    part's **local** coordinates. At compile, after the part's mate features are applied, the
+    block becomes ``part & region`` and the part becomes ``part - region``; several blocks of
+    one part are cut in program order. The block is a part of the compiled model of its own
+    (``block_of`` names the painted part): same placement and link as its part, its own
+    material in every export; it has no frames and no mates. Volume is conserved (checked
+    within ``config.MATERIAL.paint_volume_rtol``). A region that misses the part, leaves it
+    empty, or reaches into one of the part's mate features (a peg, a bore, a socket) is a
+    finding naming the block.
+
+    Args:
+        part_name: the painted part (a ``@part`` function of the program).
+        material: a material of the library, as in ``@part(material=...)``.
+        description: one line (default: "<material> block of <part>").
+
+    Example::
+
+        @paint("wheel", material="rubber", description="the tyre band")
+        def wheel_tyre():
+            return Cylinder(80, 60) - Cylinder(70, 60)
+    """
+    if not isinstance(material, str):
+        raise ProgramFormatError(f"paint material must be a material name, got {material!r:.40}")
+    if not isinstance(description, str):
+        raise ProgramFormatError("paint description must be a string")
+
+    def register(fn: Callable[[], Any]) -> Callable[[], Any]:
+        code = fn.__code__
+        end = max((ln for _, _, ln in code.co_lines() if ln), default=code.co_firstlineno)
+        active().add_paint(PaintDecl(fn.__name__, part_name, fn, material, description,
+                                     code.co_firstlineno, end))
         return fn
 
     return register

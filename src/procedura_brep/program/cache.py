@@ -61,10 +61,11 @@ def store(cache_dir: str | os.PathLike[str], key: str, data: bytes) -> None:
 
 
 def store_model(cache_dir: str | os.PathLike[str], model: Any) -> int:
-    """Store every part of a compiled model that carries a key; returns how many were new."""
+    """Store every part of a compiled model that carries a key; returns how many were new.
+    A painted part is stored unpainted (its colour blocks are cut again on every compile)."""
     new = 0
     for p in model.parts:
         if p.cache_key and load(cache_dir, p.cache_key) is None:
-            store(cache_dir, p.cache_key, p.brep)
+            store(cache_dir, p.cache_key, getattr(p, "unpainted", b"") or p.brep)
             new += 1
     return new

@@ -15,6 +15,9 @@ A part's key (:func:`part_keys`) hashes:
 * every mate that adds a feature to it, in declaration order: mate name, its role (child or
   parent), type, nominal value, fit, options and this part's frame matrix.
 
+``@paint`` regions are in no key: a painted part's key (and the cache entry) is its unpainted
+solid's, and :mod:`procedura_brep.program.blocks` cuts the blocks after the solid is loaded.
+
 So an unused helper, a new param, a new part and its frames change no other part's key; a
 changed helper changes the keys of exactly the parts that reach it; a spliced part's mates
 change its own key and its partners'. Line numbers are in no key (a splice shifts them).

@@ -44,6 +44,11 @@ class CompiledPart:
     reads: tuple[str, ...] = ()
     cache_key: str = ""
     pieces: int = 1
+    #: The part this colour block is painted on (``@paint``); "" for a part.
+    block_of: str = ""
+    #: A painted part's solid before its blocks were cut (what the part cache stores); b"" when
+    #: the part is not painted.
+    unpainted: bytes = field(default=b"", repr=False)
     _shape: Any = field(default=None, repr=False, compare=False)
 
     @property
@@ -84,6 +89,11 @@ class CompiledPart:
 
     def world_frame(self, frame: str) -> np.ndarray:
         return self.placement @ self.frames[frame]
+
+    @property
+    def owner(self) -> str:
+        """The part whose body this is: the painted part for a colour block, else the part."""
+        return self.block_of or self.name
 
 
 @dataclass
@@ -168,7 +178,10 @@ def to_json(model: CompiledModel) -> dict[str, Any]:
                    "placement": _m(p.placement), "frames": {k: _m(v) for k, v in p.frames.items()},
                    "material": p.material, "detail": p.detail, "description": p.description,
                    "lines": list(p.lines), "reads": list(p.reads), "cache_key": p.cache_key,
-                   "pieces": p.pieces}
+                   "pieces": p.pieces,
+                   **({"block_of": p.block_of} if p.block_of else {}),
+                   **({"unpainted": base64.b64encode(p.unpainted).decode("ascii")}
+                      if p.unpainted else {})}
                   for p in model.parts],
         "mates": [{**{k: v for k, v in m.__dict__.items() if k != "world_frame"},
                    "world_frame": _m(m.world_frame)} for m in model.mates],

@@ -38,6 +38,19 @@ class PartDecl:
 
 
 @dataclass
+class PaintDecl:
+    """One ``@paint(part, material=...)`` declaration: a colour block cut from ``part``."""
+
+    name: str
+    part: str
+    fn: Callable[[], Any]
+    material: str
+    description: str
+    line: int
+    end_line: int
+
+
+@dataclass
 class MateDecl:
     name: str
     child: str
@@ -60,6 +73,7 @@ class Registry:
     frame_lines: dict[str, int] = field(default_factory=dict)
     mates: list[MateDecl] = field(default_factory=list)
     materials: dict[str, Material] = field(default_factory=dict)  # the program's own, in order
+    paints: list[PaintDecl] = field(default_factory=list)  # colour blocks, in program order
 
     @property
     def library(self) -> dict[str, Material]:
@@ -85,6 +99,16 @@ class Registry:
         if decl.name in self.parts:
             raise ProgramFormatError(f"part {decl.name!r} is defined twice", line=decl.line)
         self.parts[decl.name] = decl
+
+    def add_paint(self, decl: PaintDecl) -> None:
+        """Record a colour block (its part is checked at compile: it may be declared later)."""
+        for what, value in (("block name", decl.name), ("painted part", decl.part)):
+            if not valid_name(value):
+                raise ProgramFormatError(f"{what} {value!r:.80} must be snake_case [a-z][a-z0-9_]*",
+                                         line=decl.line)
+        if any(p.name == decl.name for p in self.paints):
+            raise ProgramFormatError(f"block {decl.name!r} is painted twice", line=decl.line)
+        self.paints.append(decl)
 
     def add_frames(self, part: str, frames: dict[str, Any], line: int | None) -> None:
         for fname in frames:

@@ -29,7 +29,7 @@ from ..findings import failed
 from ..mates import check_options, get_type
 from ..mates import placement as pl
 from ..mates.kinds import Motion
-from . import cache, caps, guards, keys, policy, registry
+from . import blocks, cache, caps, guards, keys, policy, registry
 from .model import CompiledMate, CompiledModel, CompiledPart, Finding, cap_text
 from .sections import parse_sections
 
@@ -171,9 +171,10 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     b.timings["exec_s"] = time.perf_counter() - t0
     if not b.findings and not reg.parts:
         b.fail("no-parts", "the program declares no @part functions")
-    if len(reg.parts) > limits.max_parts:
-        b.fail("too-large", f"the program declares {len(reg.parts)} parts; the cap is "
-                            f"{limits.max_parts} (config.SANDBOX.max_parts)", value=len(reg.parts),
+    n_parts = len(reg.parts) + len(reg.paints)  # colour blocks are parts of the model too
+    if n_parts > limits.max_parts:
+        b.fail("too-large", f"the program declares {n_parts} parts and blocks; the cap is "
+                            f"{limits.max_parts} (config.SANDBOX.max_parts)", value=n_parts,
                limit=limits.max_parts)
     _check_materials(b, reg)
     if failed(b.findings):
@@ -186,6 +187,7 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     _eval_parts(b, reg, hits, params, glb)
     contextvars.Context().run(_apply_features, b, reg, mates, hits)
     _place(b, reg, mates)
+    painted = blocks.apply_paint(b, reg, mates)  # colour blocks, cut after features and caching
     _check_model_caps(b, reg)
     changed = guards.changed_tables(tables)
     if changed:
@@ -199,7 +201,9 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     part_keys = {n: k for n, k in part_keys.items()
                  if k and (n not in volatile or after.get(n) == k)}
     b.timings["cache_hits"] = float(len(hits))
-    return _serialise(b, reg, params, mates, time.perf_counter() - t0, part_keys)
+    model = _serialise(b, reg, params, mates, time.perf_counter() - t0, part_keys)
+    model.parts = blocks.with_blocks(b, model.parts, painted)
+    return model
 
 
 def _exec_module(b: _Build, tree: ast.Module, glb: dict[str, Any]) -> None:

@@ -161,13 +161,9 @@ def _part(p: Any, i: int, library: dict[str, Material]) -> CompiledPart:
     key = p.get("cache_key", "")
     if key != "" and not (isinstance(key, str) and HEX_KEY.fullmatch(key)):
         raise _bad(f"{where}.cache_key", f"= {key!r:.80} is not a sha256 hex digest")
-    brep = p.get("brep")
-    if not isinstance(brep, str):
-        raise _bad(f"{where}.brep", "is not base64 text")
-    try:
-        data = base64.b64decode(brep, validate=True)
-    except (binascii.Error, ValueError):
-        raise _bad(f"{where}.brep", "is not base64 text") from None
+    data = _b64(p.get("brep"), f"{where}.brep")
+    unpainted = _b64(p["unpainted"], f"{where}.unpainted") if "unpainted" in p else b""
+    block_of = _name(p["block_of"], f"{where}.block_of") if "block_of" in p else ""
     lines = _list(p.get("lines"), f"{where}.lines", 2)
     if len(lines) != 2:
         raise _bad(f"{where}.lines", "is not a pair of line numbers")
@@ -180,7 +176,17 @@ def _part(p: Any, i: int, library: dict[str, Material]) -> CompiledPart:
         description=_text(p.get("description", ""), f"{where}.description", 1000),
         lines=(_int(lines[0], f"{where}.lines"), _int(lines[1], f"{where}.lines")),
         reads=tuple(_name(r, f"{where}.reads", IDENT) for r in _list(p.get("reads", []), f"{where}.reads", 4096)),
-        cache_key=key, pieces=_pieces(p.get("pieces", 1), f"{where}.pieces"))
+        cache_key=key, pieces=_pieces(p.get("pieces", 1), f"{where}.pieces"),
+        block_of=block_of, unpainted=unpainted)
+
+
+def _b64(v: Any, where: str) -> bytes:
+    if not isinstance(v, str):
+        raise _bad(where, "is not base64 text")
+    try:
+        return base64.b64decode(v, validate=True)
+    except (binascii.Error, ValueError):
+        raise _bad(where, "is not base64 text") from None
 
 
 def _pieces(v: Any, where: str) -> int:
@@ -241,6 +247,8 @@ def model_from_json(d: Any, *, name: str | None = None) -> CompiledModel:
         cp = _part(p, i, library)
         if cp.name in parts:
             raise _bad(f"part {cp.name}", "appears twice")
+        if cp.block_of and (cp.block_of not in parts or parts[cp.block_of].block_of):
+            raise _bad(f"part {cp.name}.block_of", f"= {cp.block_of!r} is not an earlier part")
         parts[cp.name] = cp
     mates = [_mate(m, i, parts) for i, m in enumerate(_list(d.get("mates"), "mates", 4 * SANDBOX.max_parts))]
     if len({m.name for m in mates}) != len(mates):
