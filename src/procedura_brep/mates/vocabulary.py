@@ -139,44 +139,43 @@ class MateType:
 
 
 @dataclass(frozen=True)
-class RevoluteType(MateType):
+class _AxialType(MateType):
+    """One DOF along or about frame Z: a scalar home and a range check in the kind's unit."""
+
+    axial_kind: ClassVar[JointKind]
+
+    def home_value(self, options: dict[str, Any]) -> float:
+        return float(options.get("home") or 0.0)
+
+    def check_value(self, mate: str, value: float | Sequence[float], *,
+                    limits: tuple[float, float] | None = None, cone: float | None = None,
+                    angle_limits: tuple[float, float] | None = None) -> None:
+        from .placement import check_linear
+        check_linear(f"{mate} ({self.name}) position", float(value), limits,  # type: ignore[arg-type]
+                     self.axial_kind.mate_unit)
+
+
+@dataclass(frozen=True)
+class RevoluteType(_AxialType):
     """A turn about frame Z: limited in degrees, or continuous without limits."""
 
     motion: ClassVar[Motion] = Motion.TURN
+    axial_kind: ClassVar[JointKind] = REVOLUTE
 
     def joint_kind(self, options: dict[str, Any]) -> JointKind:
         return CONTINUOUS if options.get("limits") is None else REVOLUTE
 
-    def home_value(self, options: dict[str, Any]) -> float:
-        return float(options.get("home") or 0.0)
-
-    def check_value(self, mate: str, value: float | Sequence[float], *,
-                    limits: tuple[float, float] | None = None, cone: float | None = None,
-                    angle_limits: tuple[float, float] | None = None) -> None:
-        from .placement import check_linear
-        check_linear(f"{mate} ({self.name}) position", float(value), limits,  # type: ignore[arg-type]
-                     REVOLUTE.mate_unit)
-
 
 @dataclass(frozen=True)
-class PrismaticType(MateType):
+class PrismaticType(_AxialType):
     """A slide along frame Z, limits in millimetres (required)."""
 
     motion: ClassVar[Motion] = Motion.SLIDE
     needs_limits: ClassVar[bool] = True
+    axial_kind: ClassVar[JointKind] = PRISMATIC
 
     def joint_kind(self, options: dict[str, Any]) -> JointKind:
         return PRISMATIC
-
-    def home_value(self, options: dict[str, Any]) -> float:
-        return float(options.get("home") or 0.0)
-
-    def check_value(self, mate: str, value: float | Sequence[float], *,
-                    limits: tuple[float, float] | None = None, cone: float | None = None,
-                    angle_limits: tuple[float, float] | None = None) -> None:
-        from .placement import check_linear
-        check_linear(f"{mate} ({self.name}) position", float(value), limits,  # type: ignore[arg-type]
-                     PRISMATIC.mate_unit)
 
 
 @dataclass(frozen=True)
