@@ -68,17 +68,20 @@ def check(source: str, filename: str = "<program>", *, tree: ast.Module | None =
             tree = ast.parse(source, filename=filename)
         except SyntaxError as exc:
             raise ProgramFormatError(f"syntax error: {exc.msg}", line=exc.lineno) from None
-    for node in ast.walk(tree):
+    nodes = list(ast.walk(tree))  # walked once: the three passes below read the list
+    for node in nodes:
         _check_node(node)
-    bound = _bound_names(tree)
-    for node in ast.walk(tree):
-        _check_write(node, bound)
+    bound = _bound_names(nodes)
+    for node in nodes:
+        if isinstance(node, (ast.Subscript, ast.Call)):
+            _check_write(node, bound)
 
 
-def _bound_names(tree: ast.AST) -> set[str]:
-    """Every name the program binds anywhere (assignments, arguments, defs, imports, loops)."""
+def _bound_names(nodes: list[ast.AST]) -> set[str]:
+    """Every name the program binds anywhere (assignments, arguments, defs, imports, loops),
+    from every node of its tree."""
     out: set[str] = set()
-    for node in ast.walk(tree):
+    for node in nodes:
         if isinstance(node, ast.Name) and isinstance(node.ctx, (ast.Store, ast.Del)):
             out.add(node.id)
         elif isinstance(node, ast.arg):
