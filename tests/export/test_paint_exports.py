@@ -82,3 +82,13 @@ def test_urdf_and_mjcf_show_the_block_as_a_visual_of_the_part_link(bundle):
     body = next(b for b in mj.iter("body") if b.get("name") == "arm")
     geom = next(g for g in body.findall("geom") if g.get("name") == "arm_tip")
     assert [float(x) for x in geom.get("rgba").split()] == pytest.approx([*RUBBER, 1.0], abs=1e-6)
+
+
+def test_mates_json_and_the_part_rows_name_each_block_s_part(lamp):
+    """A block joins its part by no mate: mates.json says which part it belongs to, and so do
+    report.json's part rows (a reader would otherwise see an unmated part)."""
+    from procedura_brep.export.records import mates_json, part_rows
+    graph = mates_json(lamp)
+    assert graph["blocks"] == {"arm_tip": "arm"}
+    rows = {r["name"]: r for r in part_rows(lamp)}
+    assert rows["arm_tip"]["block_of"] == "arm" and "block_of" not in rows["arm"]

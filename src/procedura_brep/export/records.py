@@ -38,6 +38,9 @@ def mates_json(model: CompiledModel, evidence: dict[str, Any] | None = None) -> 
         })
     out: dict[str, Any] = {"program": model.name, "units": {"length": "mm", "angle": "deg"},
                            "root": model.parts[0].name if model.parts else None, "mates": mates}
+    blocks = {p.name: p.block_of for p in model.parts if p.block_of}
+    if blocks:  # colour blocks: rigid with their painted part, joined by no mate
+        out["blocks"] = blocks
     if evidence is not None:
         out["evidence"] = evidence
     return out
@@ -54,6 +57,7 @@ def part_rows(model: CompiledModel) -> list[dict[str, Any]]:
     for p in model.parts:
         lo, hi = kernel.bbox(p.shape())
         rows.append({"name": p.name, "material": p.material, "detail": p.detail,
+                     **({"block_of": p.block_of} if p.block_of else {}),
                      "volume_mm3": kernel.volume(p.local_shape()), "bbox_mm": [list(lo), list(hi)],
                      "lines": list(p.lines), "compile_s": model.timings.get(f"part:{p.name}")})
     return rows
