@@ -14,7 +14,6 @@ from procedura_brep.agent.paint import (
     apply_materials,
     declared_entries,
     parse_assignment,
-    parse_rewrites,
 )
 
 LAMP = (Path(__file__).parents[1] / "program" / "lamp.py").read_text()
@@ -67,13 +66,16 @@ def test_a_critic_reply_names_only_changes_and_may_use_the_program_entries():
 
 
 def test_rewrites_format():
-    assert parse_rewrites("REWRITES: none", parts=PARTS) == []
-    got = parse_rewrites("REWRITE arm\n## params\nnone\nREWRITE post\n## body\nx", parts=PARTS)
-    assert [n for n, _ in got] == ["arm", "post"] and "## params" in got[0][1]
+    from procedura_brep.agent.subparts import parse_subparts
+    lib = {"steel"}
+    assert parse_subparts("REWRITES: none", parts=PARTS, library=lib) == []
+    got = parse_subparts("REWRITE arm\n## params\nnone\nREWRITE post\n## body\nx", parts=PARTS, library=lib)
+    assert [(e.kind, e.part) for e in got] == [("rewrite", "arm"), ("rewrite", "post")]
+    assert "## params" in got[0].text
     with pytest.raises(PaintError, match="REWRITE lid: no such part"):
-        parse_rewrites("REWRITE lid\n", parts=PARTS)
+        parse_subparts("REWRITE lid\n", parts=PARTS, library=lib)
     with pytest.raises(PaintError, match="REWRITES: none"):
-        parse_rewrites("nothing to do", parts=PARTS)
+        parse_subparts("nothing to do", parts=PARTS, library=lib)
 
 
 def test_the_splice_changes_only_declarations_and_material_options():

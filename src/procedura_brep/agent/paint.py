@@ -35,8 +35,6 @@ from ..program.sections import marker, parse_sections
 
 FIELDS: tuple[str, ...] = ("base", "rgb", "roughness", "metalness", "density", "material_class", "wear")
 _FENCE_RE = re.compile(r"```(?:json)?\s*\n(.*?)\n\s*```", re.S)
-_NONE_RE = re.compile(r"^\s*REWRITES\s*:\s*none\.?\s*$", re.I | re.M)
-_REWRITE_RE = re.compile(r"^\s*REWRITE\s+`?([a-z][a-z0-9_]*)`?\s*:?\s*$", re.M)
 
 
 def _text(v: Any) -> str:
@@ -162,30 +160,6 @@ def parse_assignment(text: str, *, parts: list[str], current: tuple[Entry, ...] 
                          f"library entry: {', '.join(library)}")
     summary = obj.get("summary", "")
     return Assignment(summary if isinstance(summary, str) else str(summary), new, dict(assign))
-
-
-def parse_rewrites(text: str, *, parts: list[str]) -> list[tuple[str, str]]:
-    """A ``subparts`` reply: ``[]`` for ``REWRITES: none``, else (part, five-block text) pairs.
-
-    Raises:
-        PaintError: neither form, a part not in the program, a part rewritten twice.
-    """
-    heads = list(_REWRITE_RE.finditer(text))
-    if not heads:
-        if _NONE_RE.search(text):
-            return []
-        raise PaintError("reply 'REWRITES: none', or put a line 'REWRITE part_name' before each "
-                         "rewritten part's five blocks")
-    out: list[tuple[str, str]] = []
-    for k, h in enumerate(heads):
-        name = h.group(1)
-        if name not in parts:
-            raise PaintError(f"REWRITE {name}: no such part; parts: {', '.join(parts)}")
-        if any(n == name for n, _ in out):
-            raise PaintError(f"part {name} is rewritten twice")
-        end = heads[k + 1].start() if k + 1 < len(heads) else len(text)
-        out.append((name, text[h.end():end]))
-    return out
 
 
 # the splice ---------------------------------------------------------------------------------
