@@ -5,7 +5,6 @@ whose region misses the post is refused with the measured reason."""
 from __future__ import annotations
 
 import json
-import struct
 from pathlib import Path
 
 import numpy as np
@@ -99,10 +98,8 @@ def test_the_block_colour_reads_back_from_step_and_glb(run):
     assert list(step) == ["base", "post", "arm", "arm_tip"]
     assert np.allclose(step["arm_tip"], RUBBER, atol=1 / 255)
     assert np.allclose(step["arm"], (0.78, 0.08, 0.06), atol=1 / 255)
-    data = (out / "model.glb").read_bytes()
-    tree = json.loads(data[20:20 + struct.unpack_from("<I", data, 12)[0]])
-    node = next(n for n in tree["nodes"] if n.get("name") == "arm_tip")
-    mat = tree["materials"][tree["meshes"][node["mesh"]]["primitives"][0]["material"]]
+    from procedura_brep.testing.exports import glb_json, glb_node_material
+    mat = glb_node_material(glb_json(out / "model.glb"), "arm_tip")
     assert mat["name"] == "arm_tip_rubber"
     assert mat["pbrMetallicRoughness"]["baseColorFactor"] == pytest.approx(
         [*srgb_to_linear(np.array(RUBBER)), 1.0], abs=1e-9)

@@ -5,7 +5,6 @@ history, and the materials reach STEP colours, MTL, GLB and USD (each read back)
 from __future__ import annotations
 
 import json
-import struct
 from pathlib import Path
 
 import numpy as np
@@ -96,8 +95,8 @@ def test_the_materials_reach_step_mtl_glb_and_usd(run):
         assert np.allclose(step[part], rgb, atol=1 / 255), part
     mtl = (out / "model.mtl").read_text()
     assert "Kd 0.860000 0.870000 0.900000" in mtl.split("newmtl post_chrome\n")[1].split("\n\n")[0]
-    data = (out / "model.glb").read_bytes()
-    tree = json.loads(data[20:20 + struct.unpack_from("<I", data, 12)[0]])
+    from procedura_brep.testing.exports import glb_json
+    tree = glb_json(out / "model.glb")
     pbr = {m["name"]: m["pbrMetallicRoughness"] for m in tree["materials"]}["arm_lamp_red"]
     assert pbr["baseColorFactor"] == pytest.approx([*srgb_to_linear(RED), 1.0], abs=1e-9)
     from pxr import Usd, UsdShade

@@ -4,7 +4,6 @@ each format is read back and compared with the declared entry, not with the buil
 from __future__ import annotations
 
 import json
-import struct
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -14,6 +13,7 @@ import pytest
 from procedura_brep import kernel
 from procedura_brep.export.bundle import write_bundle
 from procedura_brep.export.step import read_step_parts
+from procedura_brep.testing.exports import glb_json
 
 LAMP = (Path(__file__).resolve().parents[1] / "program" / "lamp.py").read_text()
 RED = (0.8, 0.1, 0.1)
@@ -70,15 +70,9 @@ def test_obj_mtl(bundle):
     assert "Kd 0.050000 0.600000 0.550000" in mtl.split("newmtl post_teal_resin\n")[1]
 
 
-def _gltf(path: Path) -> dict:
-    data = path.read_bytes()
-    n = struct.unpack_from("<I", data, 12)[0]
-    return json.loads(data[20:20 + n])
-
-
 def test_glb_pbr(bundle):
     from procedura_brep.export.glb import srgb_to_linear
-    tree = _gltf(bundle / "model.glb")
+    tree = glb_json(bundle / "model.glb")
     mats = {m["name"]: m["pbrMetallicRoughness"] for m in tree["materials"]}
     pbr = mats["arm_lamp_red"]
     assert pbr["baseColorFactor"] == pytest.approx([*srgb_to_linear(RED), 1.0], abs=1e-9)

@@ -3,8 +3,6 @@ part's link (issue 13, item 6): each file is read back, not compared as bytes.""
 
 from __future__ import annotations
 
-import json
-import struct
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -54,10 +52,8 @@ def test_obj_has_a_group_with_the_block_material(bundle):
 
 def test_glb_has_a_mesh_with_the_block_pbr_material(bundle):
     from procedura_brep.export.glb import srgb_to_linear
-    data = (bundle / "model.glb").read_bytes()
-    tree = json.loads(data[20:20 + struct.unpack_from("<I", data, 12)[0]])
-    node = next(n for n in tree["nodes"] if n.get("name") == "arm_tip")
-    mat = tree["materials"][tree["meshes"][node["mesh"]]["primitives"][0]["material"]]
+    from procedura_brep.testing.exports import glb_json, glb_node_material
+    mat = glb_node_material(glb_json(bundle / "model.glb"), "arm_tip")
     assert mat["name"] == "arm_tip_rubber"
     assert mat["pbrMetallicRoughness"]["baseColorFactor"] == pytest.approx(
         [*srgb_to_linear(np.array(RUBBER)), 1.0], abs=1e-9)
