@@ -55,15 +55,15 @@ class BuildResult:
 
     @property
     def compiled(self) -> bool:
-        """Whether the program compiled to at least one part."""
-        return self.model is not None and bool(self.model.parts)
+        """Whether the program compiled cleanly: at least one part, and no part failed (an
+        exception, a cap). A program that did not is the user's input at fault (exit 2), as
+        for ``check``, ``render``, ``export`` and ``simulate``."""
+        return self.model is not None and bool(self.model.parts) and self.model.ok
 
     @property
     def exit_code(self) -> int:
-        """The process exit code for this build (:func:`procedura_brep.run.status.exit_code`):
-        a program whose compile failed a part (an exception, a cap) is the user's input at
-        fault, 2, as for ``check``, ``render``, ``export`` and ``simulate``."""
-        return exit_code(self.status, compiled=self.compiled and self.model is not None and self.model.ok)
+        """The process exit code for this build (:func:`procedura_brep.run.status.exit_code`)."""
+        return exit_code(self.status, compiled=self.compiled)
 
     @property
     def errors(self) -> list[Finding]:
