@@ -7,7 +7,8 @@ two parts overlap), and measures in one warm worker:
   cold:   compile + gates of the whole program with an empty part cache and empty gate caches;
   add:    compile + gates after appending one more part to the already-built program;
   splice: the staged agent's step: splice the five-block reply of part k+1 into the built
-          program of k parts (part cache and gate caches warm for those k), compile, gates;
+          program of k parts (part cache and gate caches warm for those k, and the heap
+          settled as the agent's commit of part k leaves it: ``run.settle``), compile, gates;
   cold+1: compile + gates of all k+1 parts from empty caches (what the splice is compared with).
 
 Prints the figures and the ratios add/cold and splice/cold+1 per size, and t160/t40 for the
@@ -19,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import gc
 import statistics
 import tempfile
 import time
@@ -72,6 +74,7 @@ def booted_worker() -> Iterator[object]:
 
 def measure(n: int, repeat: int) -> dict[str, float]:
     """Median seconds of cold, add, splice and cold+1 at ``n`` parts."""
+    from procedura_brep.run import settle
     from procedura_brep.testing.programs import tower_reply
     runs: dict[str, list[float]] = {"cold": [], "add": [], "splice": [], "cold1": []}
     for _ in range(repeat):
@@ -82,7 +85,9 @@ def measure(n: int, repeat: int) -> dict[str, float]:
             runs["cold1"].append(compile_and_gate(w, program(n + 1)))
         with booted_worker() as w:
             compile_and_gate(w, program(n))  # the k parts built: warm part and gate caches
+            settle()  # what the agent's commit of part k does
             runs["splice"].append(splice_and_gate(w, program(n), tower_reply(n)))
+            gc.unfreeze()  # the next measurements start from an unfrozen heap
     return {k: statistics.median(v) for k, v in runs.items()}
 
 

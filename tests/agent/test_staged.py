@@ -27,8 +27,18 @@ def test_the_tape_is_labelled_hand_written():
 def lamp_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("staged") / "lamp"
     lines: list[str] = []
+    import gc
+    gc.unfreeze()
     result = generate_staged(None, out, model=f"replay:{LAMP}", progress=lambda s, t: lines.append(f"{s}: {t}"))
+    lines.append(f"(test) objects frozen after the run: {gc.get_freeze_count()}")
+    gc.unfreeze()
     return result, out, lines
+
+
+def test_a_commit_settles_the_heap(lamp_run):
+    """Each commit freezes the committed baseline out of the cyclic collector (run.settle)."""
+    frozen = int(lamp_run[2][-1].rsplit(" ", 1)[1])
+    assert frozen > 10_000, frozen
 
 
 def test_a_replayed_staged_run_ships_a_gated_articulated_model(lamp_run):

@@ -192,3 +192,83 @@ def test_edit_refuses_a_size_going_to_zero_or_below():
         set_params(LAMP, {"pin_d": -5})
     with pytest.raises(EditError, match="base_t = 0 mm"):
         set_params(LAMP, {"base_t": 0})
+
+
+def test_a_stored_part_carries_its_figures_and_a_hit_uses_them(tmp_path):
+    """The parent measures each solid it stores (``<key>.fig``); a compile that hits the cache
+    checks the caps on those figures, without reading the BRep back."""
+    from procedura_brep.program import cache, caps
+    from procedura_brep.config import SANDBOX
+    folder = tmp_path / "cache"
+    w = Worker(cache_dir=folder)
+    try:
+        cold = w.compile(LAMP)
+        for p in cold.parts:
+            fig = cache.load_figures(folder, p.cache_key)
+            assert fig == caps.figures_json(caps.measure(kernel.read_brep(p.brep), SANDBOX)), p.name
+        # planted: the stored figures of the post claim a billion faces; the hit believes them
+        key = cold.part("post").cache_key
+        real = (folder / f"{key}.fig").read_text()
+        (folder / f"{key}.fig").write_text(real.replace(f'"faces": {cache.load_figures(folder, key)["faces"]}',
+                                                        '"faces": 1000000000'))
+        big = w.compile(LAMP)
+        assert rebuilt(big) == set()
+        assert any(f.code == "too-large" and "faces" in f.message for f in big.findings), big.findings
+        # figures that do not read as figures: the child measures the solid itself
+        (folder / f"{key}.fig").write_text("{not json")
+        again = w.compile(LAMP)
+        assert again.ok and rebuilt(again) == set()
+    finally:
+        w.close()
+
+
+def test_a_measure_stopped_at_a_cap_stores_no_figures(tmp_path):
+    from dataclasses import replace
+    from procedura_brep.program import cache
+    from procedura_brep.config import SANDBOX
+    w = Worker(cache_dir=tmp_path / "first")
+    try:
+        model = w.compile(LAMP)
+    finally:
+        w.close()
+    folder = tmp_path / "second"
+    assert cache.store_model(folder, model, replace(SANDBOX, max_part_faces=2)) == 3
+    for p in model.parts:
+        assert cache.has(folder, p.cache_key) and cache.load_figures(folder, p.cache_key) is None
+
+
+def test_cache_hits_come_back_by_key_not_as_bytes(tmp_path, monkeypatch):
+    """The child names a cached part's key instead of sending its BRep; the parent reads its
+    own copy, and the model is the same as with the bytes."""
+    from procedura_brep.program import sandbox
+    payloads = []
+    real = sandbox._read_result
+    monkeypatch.setattr(sandbox, "_read_result", lambda *a: payloads.append(real(*a)) or payloads[-1])
+    w = Worker(cache_dir=tmp_path / "cache")
+    try:
+        cold = w.compile(LAMP)
+        warm = w.compile(LAMP)
+    finally:
+        w.close()
+    assert all("brep" in p and "cached" not in p for p in payloads[0]["parts"])
+    assert all(p == {**p, "cached": True} and "brep" not in p for p in payloads[1]["parts"])
+    assert [p.from_cache for p in warm.parts] == [True, True, True]
+    assert [p.digest for p in warm.parts] == [p.digest for p in cold.parts]
+
+
+def test_a_parts_digest_and_shape_follow_its_bytes_and_name(tmp_path):
+    """The digest's BRep hash is memoised with the bytes it hashed, and read-back shapes are
+    shared by part name and bytes: the same part in the next model, never two parts of one."""
+    from dataclasses import replace
+    w = Worker(cache_dir=tmp_path / "cache")
+    try:
+        one, two = w.compile(LAMP), w.compile(LAMP)
+    finally:
+        w.close()
+    post, arm = one.part("post"), one.part("arm")
+    before = post.digest
+    post.brep = arm.brep
+    assert post.digest != before and post.digest == replace(arm, placement=post.placement).digest
+    assert two.part("base").local_shape() is one.part("base").local_shape()
+    twin = replace(one.part("base"), name="base_twin", _shape=None, _brep_sha=None)
+    assert twin.local_shape() is not one.part("base").local_shape()

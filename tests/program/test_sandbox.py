@@ -246,3 +246,50 @@ def test_text_works_in_the_sandbox(worker):
     m = worker.compile(in_part("t = 'x'.encode('utf-16') + 'x'.encode('cp1252')\n"
                                "return extrude(Text('x', 5), 2)"), CompileOptions(cache=False))
     assert m.ok, [f.message for f in m.findings]
+
+
+def _children(pid: int) -> list[int]:
+    out = []
+    for d in os.listdir("/proc"):
+        if d.isdigit():
+            try:
+                stat = Path(f"/proc/{d}/stat").read_text()
+            except OSError:
+                continue
+            if int(stat.rsplit(")", 1)[1].split()[1]) == pid:
+                out.append(int(d))
+    return out
+
+
+def test_the_spare_child_dies_with_its_worker_and_holds_none_of_its_pipes(tmp_path):
+    """The zygote forks each compile's child ahead of its request (the spare). The spare must
+    hold none of the zygote's pipes (else a dead zygote's caller waits forever on its stdout)
+    and must exit when the zygote dies (no orphan)."""
+    import signal
+    import threading
+    from procedura_brep.program.sandbox import Worker
+    w = Worker(cache_dir=tmp_path / "cache")
+    try:
+        assert w.compile(LAMP).ok
+        zygote = w._proc.pid
+        deadline = time.monotonic() + 10
+        while not _children(zygote) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        spares = _children(zygote)
+        assert len(spares) == 1, spares
+        os.kill(zygote, signal.SIGKILL)
+        w._proc.wait()
+        got: list[str] = []
+        reader = threading.Thread(target=lambda: got.append(w._proc.stdout.read()), daemon=True)
+        reader.start()
+        reader.join(10)
+        assert got == [""], "the zygote's stdout is still open after it died"
+        deadline = time.monotonic() + 10
+        while os.path.exists(f"/proc/{spares[0]}") and time.monotonic() < deadline:
+            time.sleep(0.05)
+        state = Path(f"/proc/{spares[0]}/stat").read_text().rsplit(")", 1)[1].split()[0] \
+            if os.path.exists(f"/proc/{spares[0]}") else "gone"
+        assert state in ("gone", "Z"), f"the spare outlived its worker (state {state})"
+        assert w.compile(LAMP).ok  # a new worker on the next call
+    finally:
+        w.close()

@@ -77,6 +77,26 @@ def test_crafted_result_is_a_finding(tmp_path, good, pid, path, value, needle):
     assert "\n" not in f.message and len(f.message) <= 400
 
 
+def test_a_part_claimed_cached_is_read_from_the_parents_cache_or_refused(tmp_path, good):
+    """A part marked ``"cached"`` takes its BRep from the parent's own cache, by its key; a
+    key the cache lacks, or no cache at all, is a ``bad-result`` naming the field."""
+    claimed = copy.deepcopy(good)
+    part = claimed["parts"][0]
+    brep = part.pop("brep")
+    part["cached"] = True
+    (tmp_path / "result.json").write_text(json.dumps(claimed))
+    for folder in (None, str(tmp_path / "empty")):
+        with pytest.raises(CompileError) as exc:
+            sandbox._result({"status": "exit"}, str(tmp_path), SANDBOX, cache_dir=folder)
+        assert exc.value.findings[0].code == "bad-result" and "parts[0]" not in exc.value.findings[0].message
+        assert "part base.cached" in exc.value.findings[0].message, exc.value.findings[0].message
+    import base64
+    store = tmp_path / "store"
+    cache.store(store, part["cache_key"], base64.b64decode(brep))
+    m = sandbox._result({"status": "exit"}, str(tmp_path), SANDBOX, cache_dir=str(store))
+    assert m.parts[0].brep == base64.b64decode(brep) and m.parts[0].from_cache
+
+
 def test_genuine_result_passes(tmp_path, good):
     (tmp_path / "result.json").write_text(json.dumps(good))
     m = sandbox._result({"status": "exit"}, str(tmp_path), SANDBOX, name="lamp")

@@ -318,6 +318,8 @@ class StagedRun:
         st.committed.append(CommittedPart(result.part, result.as_reply(), warning))
         st.baseline = max(st.baseline, verdict.n_vis) if warning else verdict.n_vis
         self._model = verdict.model
+        from ..run import settle
+        settle()  # the committed baseline is long-lived: later collections skip it
         self.dir.commit(st, result.part)
         st.per_part_s[result.part] = round(overhead + time.perf_counter() - t0, 4)
 

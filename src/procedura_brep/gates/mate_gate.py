@@ -224,9 +224,12 @@ def registration_area(child: PartGeometry, parent: PartGeometry, frame: np.ndarr
     if not psel.any():
         return 0.0
     pts, wts = _samples(ct, ca, sample_size(nominal))
+    if radius is not None:  # only samples on the disc are tested against the parent
+        disc = np.hypot(pts[:, 0], pts[:, 1]) <= radius
+        pts, wts = pts[disc], wts[disc]
+    if not len(pts):
+        return 0.0
     keep = _registered(pts, pt[psel], band)
-    if radius is not None:
-        keep &= np.hypot(pts[:, 0], pts[:, 1]) <= radius
     return float(wts[keep].sum())
 
 

@@ -7,12 +7,16 @@ mates that add features to it). A compile loads the solid of every part whose ke
 and runs only the others, so an edit, or a splice of one more part, rebuilds the parts whose
 inputs changed and nothing else.
 
-The store is a folder of ``<key>.brep`` files (OCCT binary BRep). The sandbox child only reads
-it; the parent writes the solids the child returned (:func:`store_model`).
+The store is a folder of ``<key>.brep`` files (OCCT binary BRep), each with a ``<key>.fig``
+beside it: the solid's size figures (:class:`~procedura_brep.program.caps.Figures`), measured
+by the parent when it stores the solid, so a compile that hits the cache checks its caps
+without reading the BRep back. The sandbox child only reads the store; the parent writes the
+solids the child returned (:func:`store_model`).
 """
 
 from __future__ import annotations
 
+import json
 import os
 import re
 from pathlib import Path
@@ -28,12 +32,13 @@ def valid_key(key: object) -> bool:
     return isinstance(key, str) and KEY_RE.fullmatch(key) is not None
 
 
-def load(cache_dir: str | os.PathLike[str] | int, key: str) -> bytes | None:
-    """The cached BRep for ``key``, or None. ``cache_dir`` may be an open directory fd (the
-    sandbox child reads the cache through one after dropping privileges)."""
-    if not valid_key(key):
+def load(cache_dir: str | os.PathLike[str] | int, key: str, suffix: str = ".brep") -> bytes | None:
+    """The cached BRep (or, with ``suffix=".fig"``, its figures' JSON) for ``key``, or None.
+    ``cache_dir`` may be an open directory fd (the sandbox child reads the cache through one
+    after dropping privileges)."""
+    if not valid_key(key) or suffix not in (".brep", ".fig"):
         return None
-    name = f"{key}.brep"
+    name = f"{key}{suffix}"
     try:
         if isinstance(cache_dir, int):
             fd = os.open(name, os.O_RDONLY, dir_fd=cache_dir)
@@ -44,8 +49,31 @@ def load(cache_dir: str | os.PathLike[str] | int, key: str) -> bytes | None:
         return None
 
 
-def store(cache_dir: str | os.PathLike[str], key: str, data: bytes) -> None:
-    """Store ``data`` under ``key`` atomically (safe with concurrent writers).
+def load_figures(cache_dir: str | os.PathLike[str] | int, key: str) -> dict[str, Any] | None:
+    """The figures stored beside ``key``'s BRep (:func:`store_model`), or None when there are
+    none or they do not read as figures (the caller then measures the solid itself)."""
+    raw = load(cache_dir, key, ".fig")
+    if raw is None or len(raw) > 4096:
+        return None
+    try:
+        d = json.loads(raw)
+    except ValueError:
+        return None
+    ok = (isinstance(d, dict) and all(isinstance(d.get(k), int) for k in ("solids", "faces", "triangles"))
+          and all(isinstance(d.get(k), list) and len(d[k]) == 3
+                  and all(isinstance(x, (int, float)) for x in d[k]) for k in ("lo", "hi")))
+    return d if ok else None
+
+
+def has(cache_dir: str | os.PathLike[str], key: str) -> bool:
+    """Whether ``key`` has a stored BRep (without reading it)."""
+    return valid_key(key) and (Path(cache_dir) / f"{key}.brep").is_file()
+
+
+def store(cache_dir: str | os.PathLike[str], key: str, data: bytes,
+          figures: dict[str, Any] | None = None) -> None:
+    """Store ``data`` (and its ``figures``, if given) under ``key`` atomically (safe with
+    concurrent writers). The figures are written first, so a BRep never lacks them for long.
 
     Raises:
         ValueError: ``key`` is not a sha256 hex digest (it would name a file elsewhere).
@@ -57,15 +85,37 @@ def store(cache_dir: str | os.PathLike[str], key: str, data: bytes) -> None:
     folder.chmod(0o755)
     target = folder / f"{key}.brep"
     if not target.exists():
+        if figures is not None:
+            write_atomic(folder / f"{key}.fig", json.dumps(figures).encode(), mode=0o644)
         write_atomic(target, data, mode=0o644)  # readable by the unprivileged sandbox child
 
 
-def store_model(cache_dir: str | os.PathLike[str], model: Any) -> int:
+def store_model(cache_dir: str | os.PathLike[str], model: Any, limits: Any = None) -> int:
     """Store every part of a compiled model that carries a key; returns how many were new.
-    A painted part is stored unpainted (its colour blocks are cut again on every compile)."""
+    A painted part is stored unpainted (its colour blocks are cut again on every compile).
+
+    Each new solid is measured here, in the parent (:func:`~procedura_brep.program.caps.measure`,
+    bounded like the child's own), and its figures are stored beside it when the measure
+    completed under ``limits`` (default ``config.SANDBOX``): a partial count, stopped at a
+    cap, is never stored as a figure.
+    """
+    from .. import kernel
+    from ..config import SANDBOX
+    from ..errors import ProceduraError
+    from . import caps
+    limits = limits or SANDBOX
     new = 0
     for p in model.parts:
-        if p.cache_key and load(cache_dir, p.cache_key) is None:
-            store(cache_dir, p.cache_key, getattr(p, "unpainted", b"") or p.brep)
+        if p.cache_key and not has(cache_dir, p.cache_key):
+            data = getattr(p, "unpainted", b"") or p.brep
+            figures = None
+            try:
+                shape = p.local_shape() if data is p.brep else kernel.read_brep(data)
+                fig = caps.measure(shape, limits)
+                if caps.part_violation(p.name, fig, limits) is None:
+                    figures = caps.figures_json(fig)
+            except ProceduraError:
+                figures = None
+            store(cache_dir, p.cache_key, data, figures)
             new += 1
     return new

@@ -47,6 +47,17 @@ class Figures:
         return max(h - l for l, h in zip(self.lo, self.hi)) if self.faces else 0.0
 
 
+def figures_json(fig: Figures) -> dict[str, Any]:
+    """``fig`` as a JSON-safe dict (:func:`figures_from_json` reads it back)."""
+    return {"solids": fig.solids, "faces": fig.faces, "lo": list(fig.lo), "hi": list(fig.hi),
+            "triangles": fig.triangles}
+
+
+def figures_from_json(d: dict[str, Any]) -> Figures:
+    return Figures(int(d["solids"]), int(d["faces"]), tuple(float(x) for x in d["lo"]),  # type: ignore[arg-type]
+                   tuple(float(x) for x in d["hi"]), int(d["triangles"]))  # type: ignore[arg-type]
+
+
 def _count(shape: Any, kind: Any) -> int:
     from OCP.TopExp import TopExp_Explorer
     n = 0

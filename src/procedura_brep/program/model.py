@@ -22,11 +22,17 @@ from ..materials import MATERIALS, Material, default_library, get, library_to_js
 
 _MESHES: dict[str, Any] = {}
 _MESH_CACHE_SIZE = 512
+#: Local shapes read back from BRep bytes, by part name and the bytes' sha256: a part that
+#: comes back unchanged from the next compile (a cache hit) is not read again. Two parts of
+#: one model never share a shape (the STEP writer would make identical parts one shape).
+#: Shapes are only read from (meshing cleans and rebuilds the triangulation every time).
+_SHAPES: dict[str, Any] = {}
 
 
 def clear_mesh_cache() -> None:
-    """Forget every cached part mesh (tests, memory)."""
+    """Forget every cached part mesh and shape (tests, memory)."""
     _MESHES.clear()
+    _SHAPES.clear()
 
 
 @dataclass
@@ -49,20 +55,38 @@ class CompiledPart:
     #: A painted part's solid before its blocks were cut (what the part cache stores); b"" when
     #: the part is not painted.
     unpainted: bytes = field(default=b"", repr=False)
+    #: The compile loaded this part's solid from the part cache (its ``brep`` is the stored one).
+    from_cache: bool = field(default=False, compare=False)
     _shape: Any = field(default=None, repr=False, compare=False)
+    #: (the ``brep`` object hashed, its sha256): kept with the object so a new ``brep`` is
+    #: hashed again
+    _brep_sha: Any = field(default=None, repr=False, compare=False)
+
+    def _brep_hash(self) -> Any:
+        memo = self._brep_sha
+        if memo is None or memo[0] is not self.brep:
+            memo = self._brep_sha = (self.brep, hashlib.sha256(self.brep))
+        return memo[1].copy()
 
     @property
     def digest(self) -> str:
         """sha256 of the local BRep plus placement: changes exactly when the geometry does."""
-        h = hashlib.sha256(self.brep)
+        h = self._brep_hash()
         h.update(np.round(self.placement, 9).tobytes())
         return h.hexdigest()
 
     def local_shape(self):
-        """The part's TopoDS_Shape in part-local coordinates (cached)."""
+        """The part's TopoDS_Shape in part-local coordinates (cached, also across models)."""
         if self._shape is None:
-            from .. import kernel
-            self._shape = kernel.read_brep(self.brep)
+            key = f"{self.name}:{self._brep_hash().hexdigest()}"
+            shape = _SHAPES.get(key)
+            if shape is None:
+                from .. import kernel
+                shape = kernel.read_brep(self.brep)
+                if len(_SHAPES) >= _MESH_CACHE_SIZE:
+                    _SHAPES.pop(next(iter(_SHAPES)))
+                _SHAPES[key] = shape
+            self._shape = shape
         return self._shape
 
     def shape(self):
@@ -169,12 +193,22 @@ def _m(a: np.ndarray) -> list[list[float]]:
     return np.asarray(a, dtype=float).tolist()
 
 
-def to_json(model: CompiledModel) -> dict[str, Any]:
-    """A JSON-safe dict (BRep as base64) that :func:`from_json` reads back exactly."""
+def to_json(model: CompiledModel, *, by_key: bool = False) -> dict[str, Any]:
+    """A JSON-safe dict (BRep as base64) that :func:`from_json` reads back exactly.
+
+    With ``by_key``, a part loaded from the part cache (``from_cache``, not painted) carries
+    ``"cached": true`` and no BRep: the reader takes the solid from the cache it shares with
+    the writer (the compile child's result: the parent already holds every stored solid).
+    """
+    def brep(p: CompiledPart) -> dict[str, Any]:
+        if by_key and p.from_cache and not p.unpainted and p.cache_key:
+            return {"cached": True}
+        return {"brep": base64.b64encode(p.brep).decode("ascii")}
+
     return {
         "name": model.name, "params": model.params, "timings": model.timings,
         "findings": [f.as_dict() for f in model.findings],
-        "parts": [{"name": p.name, "brep": base64.b64encode(p.brep).decode("ascii"),
+        "parts": [{"name": p.name, **brep(p),
                    "placement": _m(p.placement), "frames": {k: _m(v) for k, v in p.frames.items()},
                    "material": p.material, "detail": p.detail, "description": p.description,
                    "lines": list(p.lines), "reads": list(p.reads), "cache_key": p.cache_key,

@@ -191,11 +191,12 @@ class Worker:
                 self.isolation = _isolation_line(scratch)
                 log.debug("compile child isolation: %s", self.isolation)
                 model = _result(reply if isinstance(reply, dict) else {}, scratch, options.limits,
-                                name=options.name)
+                                name=options.name,
+                                cache_dir=self.cache_dir if options.cache else None)
                 model.isolation = self.isolation
                 if options.cache and model.ok:
                     from .cache import store_model
-                    store_model(self.cache_dir, model)
+                    store_model(self.cache_dir, model, options.limits)
                 return model
             finally:
                 shutil.rmtree(scratch, ignore_errors=True)
@@ -243,7 +244,7 @@ def _read_result(path: str, limits: SandboxLimits) -> Any:
 
 
 def _result(reply: dict[str, Any], scratch: str, limits: SandboxLimits, *,
-            name: str | None = None) -> CompiledModel:
+            name: str | None = None, cache_dir: str | None = None) -> CompiledModel:
     """The model from the child's reply and ``result.json``, or a :class:`CompileError` with a
     finding (a killed, timed-out or crashed child, or a result that breaks the schema)."""
     path = os.path.join(scratch, "result.json")
@@ -258,7 +259,7 @@ def _result(reply: dict[str, Any], scratch: str, limits: SandboxLimits, *,
             if isinstance(payload, dict) and "fatal" in payload:
                 f = finding_from_json(payload["fatal"], "fatal")
                 raise CompileError(f.message, [f])
-            return model_from_json(payload, name=name)
+            return model_from_json(payload, name=name, cache_dir=cache_dir)
         except (ResultError, OSError) as exc:
             f = Finding("bad-result", str(exc))
             raise CompileError(f.message, [f]) from None

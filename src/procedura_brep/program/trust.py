@@ -148,7 +148,7 @@ def _library(rows: Any) -> dict[str, Material]:
     return {**MATERIALS, **declared}
 
 
-def _part(p: Any, i: int, library: dict[str, Material]) -> CompiledPart:
+def _part(p: Any, i: int, library: dict[str, Material], cache_dir: str | None = None) -> CompiledPart:
     where = f"parts[{i}]"
     p = _dict(p, where, 32)
     name = _name(p.get("name"), f"{where}.name")
@@ -161,7 +161,10 @@ def _part(p: Any, i: int, library: dict[str, Material]) -> CompiledPart:
     key = p.get("cache_key", "")
     if key != "" and not (isinstance(key, str) and HEX_KEY.fullmatch(key)):
         raise _bad(f"{where}.cache_key", f"= {key!r:.80} is not a sha256 hex digest")
-    data = _b64(p.get("brep"), f"{where}.brep")
+    if p.get("cached") is True:
+        data = _from_cache(cache_dir, key, where)
+    else:
+        data = _b64(p.get("brep"), f"{where}.brep")
     unpainted = _b64(p["unpainted"], f"{where}.unpainted") if "unpainted" in p else b""
     block_of = _name(p["block_of"], f"{where}.block_of") if "block_of" in p else ""
     lines = _list(p.get("lines"), f"{where}.lines", 2)
@@ -177,7 +180,20 @@ def _part(p: Any, i: int, library: dict[str, Material]) -> CompiledPart:
         lines=(_int(lines[0], f"{where}.lines"), _int(lines[1], f"{where}.lines")),
         reads=tuple(_name(r, f"{where}.reads", IDENT) for r in _list(p.get("reads", []), f"{where}.reads", 4096)),
         cache_key=key, pieces=_pieces(p.get("pieces", 1), f"{where}.pieces"),
-        block_of=block_of, unpainted=unpainted)
+        block_of=block_of, unpainted=unpainted, from_cache=p.get("cached") is True)
+
+
+def _from_cache(cache_dir: str | None, key: str, where: str) -> bytes:
+    """The stored BRep of a part the child says it loaded from the part cache: the parent's
+    own copy (it wrote every entry), so nothing of the child's is read."""
+    from . import cache
+    if cache_dir is None:
+        raise _bad(f"{where}.cached", "is set but this compile used no part cache")
+    data = cache.load(cache_dir, key) if key else None
+    if data is None:
+        raise _bad(f"{where}.cached", f"names cache key {key[:12] or '(none)'} that the part "
+                                      f"cache does not hold")
+    return data
 
 
 def _b64(v: Any, where: str) -> bytes:
@@ -229,12 +245,14 @@ def _mate(m: Any, i: int, parts: dict[str, CompiledPart]) -> CompiledMate:
         line=None if m.get("line") is None else _int(m["line"], f"{where}.line"))
 
 
-def model_from_json(d: Any, *, name: str | None = None) -> CompiledModel:
+def model_from_json(d: Any, *, name: str | None = None, cache_dir: str | None = None) -> CompiledModel:
     """A :class:`CompiledModel` from the child's JSON, every field validated.
 
     Args:
         d: the decoded ``result.json``.
         name: the model name the parent asked for (used instead of the child's).
+        cache_dir: the part cache the compile used: a part marked ``"cached"`` takes its BRep
+            from there, by its key (an error when the cache does not hold the key).
 
     Raises:
         ResultError: the first field that is out of schema, named.
@@ -244,7 +262,7 @@ def model_from_json(d: Any, *, name: str | None = None) -> CompiledModel:
     library = _library(d.get("materials", []))
     parts: dict[str, CompiledPart] = {}
     for i, p in enumerate(parts_in):
-        cp = _part(p, i, library)
+        cp = _part(p, i, library, cache_dir)
         if cp.name in parts:
             raise _bad(f"part {cp.name}", "appears twice")
         if cp.block_of and (cp.block_of not in parts or parts[cp.block_of].block_of):

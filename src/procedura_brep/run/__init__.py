@@ -9,6 +9,7 @@ Public API (names resolve lazily, PEP 562, so importing the package loads no CAD
     gate(model, source=None, baseline=None) -> GateVerdict            # writes nothing
     export(model, root, formats=None, step_schema="AP214") -> Bundle  # exports + mates.json
     simulate(model, bundle, frames=True) -> BatteryVerdict            # never reads program.py
+    settle()                                                          # a commit: freeze the heap
     Status, exit_code(status, compiled=True) -> int                   # the one exit-code map
     run_report(...) -> dict, describe(finding) -> str, reason(status, findings) -> str
 
@@ -22,7 +23,7 @@ from typing import Any
 
 _LAZY = {
     "compile_model": ".steps", "gate": ".steps", "export": ".steps", "simulate": ".steps",
-    "GateVerdict": ".steps", "Bundle": ".steps", "BatteryVerdict": ".steps", "dump_json": ".steps",
+    "settle": ".steps", "GateVerdict": ".steps", "Bundle": ".steps", "BatteryVerdict": ".steps", "dump_json": ".steps",
     "Status": ".status", "exit_code": ".status", "EXIT_CODES": ".status",
     "run_report": ".report", "describe": ".report", "reason": ".report",
 }

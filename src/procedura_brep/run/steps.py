@@ -57,6 +57,21 @@ def compile_model(source: str, *, name: str = "model", warm: bool = False) -> Co
     return compile_source(source, name=name)
 
 
+def settle() -> None:
+    """Mark what this process holds now as long-lived: collect the garbage of the step just
+    done, then move every survivor out of the cyclic collector's generations (``gc.freeze``).
+
+    The staged agent calls it when it commits a part: the committed baseline (model, meshes,
+    gate caches) lives on, and without this the next step's full collection walks all of it
+    (about 0.09 s at 40 parts here, paid by whichever step triggers it). After it, a collection
+    scans only what later steps made. What is frozen is still freed by reference counting;
+    only reference cycles among frozen objects wait for :func:`gc.unfreeze`.
+    """
+    import gc
+    gc.collect()
+    gc.freeze()
+
+
 def _warm_imports() -> None:
     """Import what gates and exports need while the worker boots."""
     import scipy.spatial  # noqa: F401
