@@ -197,8 +197,8 @@ def test_edit_refuses_a_size_going_to_zero_or_below():
 def test_a_stored_part_carries_its_figures_and_a_hit_uses_them(tmp_path):
     """The parent measures each solid it stores (``<key>.fig``); a compile that hits the cache
     checks the caps on those figures, without reading the BRep back."""
-    from procedura_brep.program import cache, caps
     from procedura_brep.config import SANDBOX
+    from procedura_brep.program import cache, caps
     folder = tmp_path / "cache"
     w = Worker(cache_dir=folder)
     try:
@@ -224,8 +224,9 @@ def test_a_stored_part_carries_its_figures_and_a_hit_uses_them(tmp_path):
 
 def test_a_measure_stopped_at_a_cap_stores_no_figures(tmp_path):
     from dataclasses import replace
-    from procedura_brep.program import cache
+
     from procedura_brep.config import SANDBOX
+    from procedura_brep.program import cache
     w = Worker(cache_dir=tmp_path / "first")
     try:
         model = w.compile(LAMP)

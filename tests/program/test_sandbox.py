@@ -267,6 +267,7 @@ def test_the_spare_child_dies_with_its_worker_and_holds_none_of_its_pipes(tmp_pa
     and must exit when the zygote dies (no orphan)."""
     import signal
     import threading
+
     from procedura_brep.program.sandbox import Worker
     w = Worker(cache_dir=tmp_path / "cache")
     try:
