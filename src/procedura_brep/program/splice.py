@@ -23,7 +23,7 @@ import re
 from dataclasses import dataclass, field
 
 from ..errors import ProgramFormatError
-from .sections import SECTION_NAMES, marker, parse_sections
+from .sections import SECTION_NAMES, Sections, marker, parse_sections
 
 BLOCKS: tuple[str, ...] = ("params", "helpers", "body", "frames", "mates")
 _ALIASES = {"param": "params", "parameters": "params", "helper": "helpers", "part": "body",
@@ -491,17 +491,17 @@ def splice(program: str, reply: PartReply | str, *, after: str | None = None,
     source = re.sub(r"\n{4,}", "\n\n\n", source)
 
     try:
-        parse_sections(source)
+        sec = parse_sections(source)
     except ProgramFormatError as exc:
         raise SpliceError(f"the spliced program does not parse: {exc}") from None
     inserted = {b: "\n".join(t for t, _ in texts[b]).strip("\n") for b in BLOCKS}
     return SpliceResult(source, name, renames, dropped_params, dropped_helpers,
-                        _line_map(source, texts), inserted, changed_params)
+                        _line_map(source, sec, texts), inserted, changed_params)
 
 
-def _line_map(source: str, texts: dict[str, list[tuple[str, int]]]) -> dict[int, tuple[str, int]]:
-    """Find each inserted block's lines in the new source, in order, section by section."""
-    sec = parse_sections(source)
+def _line_map(source: str, sec: Sections, texts: dict[str, list[tuple[str, int]]]) -> dict[int, tuple[str, int]]:
+    """Find each inserted block's lines in the new source (``sec``: its sections), in order,
+    section by section."""
     lines = source.split("\n")
     out: dict[int, tuple[str, int]] = {}
     for b in BLOCKS:

@@ -258,6 +258,11 @@ def main() -> None:
     guards.baseline()
     from . import caps, isolation, trust  # noqa: F401 - imported before any child drops privileges
     isolation.preload()
+    import gc
+    # everything imported so far lives as long as the zygote: out of the cyclic collector's
+    # reach, so a child's collections never walk it (and never copy its pages on write)
+    gc.collect()
+    gc.freeze()
     out = sys.stdout
     out.write(json.dumps({"ready": True, "pid": os.getpid()}) + "\n")
     out.flush()
