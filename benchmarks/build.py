@@ -10,7 +10,8 @@ the per-part compile time in a warm worker (median over runs; each run compiles 
 program with the part cache off, and a part's time is its function plus its features).
 
 ``--before REV`` also builds with the package as it was at git revision REV (exported to a
-temporary folder), the same way, and prints both: the before/after figure of a change.
+temporary folder), the same way, and prints both: the before/after figure of a change. The two
+trees take turns run by run.
 
 Run: ``python benchmarks/build.py [--runs 3] [--formats step] [--simulate] [--only rover]
 [--before HEAD~1] [--no-parts]``.
@@ -118,10 +119,12 @@ def main() -> None:
                 print(f"{name}: missing")
                 continue
             what = f"formats {args.formats or 'all'}{', battery' if args.simulate else ''}"
-            for label, src in trees:
-                rows = []
-                for _ in range(args.runs):
-                    rows.append(cold_build(name, args.formats, simulate=args.simulate, src=src))
+            rows_of: dict[str, list[dict[str, float]]] = {label: [] for label, _ in trees}
+            for _ in range(args.runs):  # the trees take turns, so drift in the machine hits both
+                for label, src in trees:
+                    rows_of[label].append(cold_build(name, args.formats, simulate=args.simulate, src=src))
+            for label, _ in trees:
+                rows = rows_of[label]
                 walls = [r["wall_s"] for r in rows]
                 print(f"{name} {label}: cold build median {statistics.median(walls):.2f} s (min "
                       f"{min(walls):.2f}, {args.runs} runs, {what}); by stage (median s): "

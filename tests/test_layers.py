@@ -115,3 +115,14 @@ def test_importing_the_providers_loads_no_cad_numeric_or_gl_module():
             "             or m.startswith('procedura_brep.render')))\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]", out.stdout
+
+
+def test_importing_program_modules_by_name_loads_no_build123d():
+    """``from procedura_brep.program import caps`` loads the module, not build123d (the
+    package's lazy names must not answer for its own submodules: once that cost the CLI's cold
+    build 1.5-3 s of build123d and scikit-learn imports in the parent)."""
+    code = ("import sys\n"
+            "from procedura_brep.program import cache, caps, keys, sandbox, splice, trust\n"
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('build123d', 'sklearn')))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout

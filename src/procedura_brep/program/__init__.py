@@ -25,6 +25,12 @@ def _build123d_names() -> tuple[str, ...]:
     return tuple(n for n in build123d.__all__ if not any(s in n for s in _DENY_SUBSTRINGS))
 
 
+@lru_cache(maxsize=1)
+def _submodules() -> frozenset[str]:
+    import pkgutil
+    return frozenset(m.name for m in pkgutil.iter_modules(__path__))
+
+
 def build123d_names() -> list[str]:
     """The build123d names re-exported to programs (build123d's ``__all__`` minus file I/O)."""
     return list(_build123d_names())
@@ -42,6 +48,8 @@ def __getattr__(name: str) -> Any:
     if name == "math":
         import math
         return math
+    if name in _submodules():  # ``from . import caps``: the import system loads the module
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r} (yet)")
     if not name.startswith("_"):
         if name in _build123d_names():
             import build123d
