@@ -273,3 +273,46 @@ def test_a_parts_digest_and_shape_follow_its_bytes_and_name(tmp_path):
     assert two.part("base").local_shape() is one.part("base").local_shape()
     twin = replace(one.part("base"), name="base_twin", _shape=None, _brep_sha=None)
     assert twin.local_shape() is not one.part("base").local_shape()
+
+
+def _volume(model, name: str) -> float:
+    return kernel.volume(model.part(name).local_shape())
+
+
+def test_a_first_compile_is_shared_out_and_builds_the_same_bytes(tmp_path):
+    """A worker's first compile of six or more parts runs in shares first (the prebuild): the
+    compile proper then finds every part in the cache, and the parts are byte for byte those
+    of a compile without the cache."""
+    from procedura_brep.testing.programs import tower
+    src = tower(8)
+    w = Worker(cache_dir=tmp_path / "cache")
+    try:
+        first = w.compile(src)
+        plain = w.compile(src, CompileOptions(cache=False))
+    finally:
+        w.close()
+    assert first.ok and first.timings["cache_hits"] == 8 and rebuilt(first) == set()
+    assert [p.brep for p in first.parts] == [p.brep for p in plain.parts]
+    assert [p.placement.tolist() for p in first.parts] == [p.placement.tolist() for p in plain.parts]
+
+
+def test_a_share_leaves_out_a_part_that_reads_mutable_state_and_one_that_fails(tmp_path):
+    """p4 appends to a module list p5 reads, and they land in different shares: p5 is not
+    prebuilt (its solid depends on p4 having run), so it comes out as a plain compile builds
+    it; a part that raises in its share is reported once, by the compile proper."""
+    from procedura_brep.testing.programs import tower
+    src = (tower(8, helpers="SIZES = [40]\n")
+           .replace("def p4():\n    return block(4)", "def p4():\n    SIZES.append(24)\n    return block(4)")
+           .replace("def p5():\n    return block(5)",
+                    "def p5():\n    return block(5) + Box(SIZES[-1], 2, 2)")
+           .replace("def p6():\n    return block(6)", "def p6():\n    return block(6) + undefined_name"))
+    w = Worker(cache_dir=tmp_path / "cache")
+    try:
+        first = w.compile(src)
+        plain = w.compile(src, CompileOptions(cache=False))
+    finally:
+        w.close()
+    assert [f.part for f in first.findings if f.code == "part-exception"] == ["p6"], first.findings
+    assert "undefined_name" in next(f.message for f in first.findings if f.part == "p6")
+    assert abs(_volume(first, "p5") - _volume(plain, "p5")) < 1e-6
+    assert "p5" in rebuilt(first) and first.timings["cache_hits"] >= 5

@@ -294,3 +294,24 @@ def test_the_spare_child_dies_with_its_worker_and_holds_none_of_its_pipes(tmp_pa
         assert w.compile(LAMP).ok  # a new worker on the next call
     finally:
         w.close()
+
+
+def test_a_share_that_loops_ends_the_first_compile_within_one_limit(tmp_path):
+    """The first compile's shares run under the same limits; a share killed for its CPU limit
+    is the compile's error, in one limit's time (not the share's plus the compile's)."""
+    from procedura_brep.program.sandbox import Worker
+    from procedura_brep.testing.programs import tower
+    src = tower(8).replace("def p3():\n    return block(3)", "def p3():\n    while True:\n        pass")
+    w = Worker(cache_dir=tmp_path / "cache")
+    try:
+        w.start()
+        w._ensure_ready()
+        t = time.monotonic()
+        with pytest.raises(CompileError) as exc:
+            w.compile(src, CompileOptions(limits=FAST))
+        took = time.monotonic() - t
+        assert exc.value.findings[0].code in ("killed", "timeout"), exc.value.findings
+        assert took < FAST.wall_s + 3, took
+        assert w.compile(tower(8)).ok  # the worker goes on
+    finally:
+        w.close()

@@ -145,8 +145,13 @@ class _Build:
 
 
 def compile_program(source: str, *, name: str = "model", cache_dir: str | int | None = None,
-                    limits: SandboxLimits = SANDBOX) -> CompiledModel:
-    """Compile ``source`` in this process. Call only inside the sandbox child."""
+                    limits: SandboxLimits = SANDBOX, only: frozenset[str] | None = None) -> CompiledModel:
+    """Compile ``source`` in this process. Call only inside the sandbox child.
+
+    With ``only`` (a prebuild, one share of a parallel cold compile: see
+    :meth:`~procedura_brep.program.sandbox.Worker.compile`), build just the final solids of
+    those parts that the cache lacks and return them for the cache (see :func:`_prebuilt`).
+    """
     b = _Build(source, name)
     b.limits = limits
     t0 = time.perf_counter()
@@ -186,6 +191,8 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     t = _lap(b, "keys_s", t)
     hits = _load_cached(b, part_keys, cache_dir, painted={d.part for d in reg.paints})
     t = _lap(b, "cache_s", t)
+    if only is not None:
+        return _prebuilt(b, reg, hits, params, glb, mates, part_keys, volatile, only, t0)
     _eval_parts(b, reg, hits, params, glb)
     t = _lap(b, "parts_s", t)
     contextvars.Context().run(_apply_features, b, reg, mates, hits)
@@ -210,6 +217,30 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     model = _serialise(b, reg, params, mates, time.perf_counter() - t0, part_keys)
     model.parts = blocks.with_blocks(b, model.parts, painted)
     return model
+
+
+def _prebuilt(b: _Build, reg: registry.Registry, hits: set[str], params: dict[str, Any],
+              glb: dict[str, Any], mates: list[dict[str, Any]], part_keys: dict[str, str],
+              volatile: set[str], only: frozenset[str], t0: float) -> CompiledModel:
+    """The parts of ``only`` that the cache lacks, each run and given its mate features, as
+    unplaced parts under their keys (no placement, caps of the whole or paint: the compile that
+    follows does those, with every part a cache hit). A part is left out when its key is
+    empty or hashed a mutable module value (``volatile``): its solid could depend on which
+    other parts ran before it, and here only a share of them run."""
+    from .. import kernel
+    todo = {n for n in only if n in reg.parts and n not in hits and part_keys.get(n)
+            and n not in volatile}
+    _eval_parts(b, reg, set(reg.parts) - todo, params, glb, skip=set(reg.parts) - todo)
+    contextvars.Context().run(_apply_features, b, reg, mates, set(reg.parts) - todo)
+    bad = {f.part for f in b.findings if f.part} | {m["decl"].child for m in mates
+                                                   if any(f.mate == m["decl"].name for f in b.findings)} \
+        | {m["decl"].parent for m in mates if any(f.mate == m["decl"].name for f in b.findings)}
+    parts = [CompiledPart(name=n, brep=kernel.write_brep(kernel.bake_location(b.solids[n].wrapped)),
+                          placement=np.eye(4), frames={}, material=reg.parts[n].material,
+                          detail=reg.parts[n].detail, cache_key=part_keys[n])
+             for n in reg.parts if n in todo and n in b.solids and n not in bad]
+    b.timings["compile_s"] = time.perf_counter() - t0
+    return CompiledModel(b.name, {}, parts, [], b.findings, b.timings, reg.library)
 
 
 def _lap(b: _Build, name: str, since: float) -> float:
@@ -291,8 +322,10 @@ def _wrap(shape: Any) -> Any:
 
 
 def _eval_parts(b: _Build, reg: registry.Registry, cached: set[str], params: dict[str, Any],
-                glb: dict[str, Any]) -> None:
+                glb: dict[str, Any], skip: set[str] = frozenset()) -> None:  # type: ignore[assignment]
     for decl in reg.parts.values():
+        if decl.name in skip:
+            continue
         if decl.name in cached:
             if decl.name not in b.figures:
                 b.figures[decl.name] = caps.measure(b.solids[decl.name].wrapped, b.limits)

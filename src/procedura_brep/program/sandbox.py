@@ -30,7 +30,7 @@ from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 from ..config import SANDBOX, SandboxLimits
-from ..errors import CompileError, ProgramFormatError
+from ..errors import CompileError, ProceduraError, ProgramFormatError
 from .model import CompiledModel, Finding
 from .trust import ResultError, finding_from_json, model_from_json
 
@@ -125,6 +125,7 @@ class Worker:
         self._proc: subprocess.Popen[str] | None = None
         self._lock = threading.Lock()
         self._ids = itertools.count(1)
+        self._prebuilt = False  # the first compile of a worker may be shared out (prebuild)
         #: the OS layers the last compile child reported (``applied: ...; not applied: ...``)
         self.isolation = "unknown (nothing compiled yet)"
 
@@ -164,30 +165,22 @@ class Worker:
         """Compile ``source`` in a fresh sandboxed child.
 
         Returns the model (whose ``findings`` may hold part or mate errors). Raises
-        :class:`CompileError` when the child was killed, crashed or timed out.
+        :class:`CompileError` when the child was killed, crashed or timed out. A worker's
+        first compile with the cache on is shared out among several children first
+        (:meth:`_prebuild`): a cold build uses every core.
         """
         refuse_oversized(source, options.limits)
         with self._lock:
             proc = self._ensure_ready()
+            if options.cache and not self._prebuilt:
+                self._prebuilt = True
+                self._prebuild(proc, source, options)
             scratch = tempfile.mkdtemp(prefix=f"{TEMP_PREFIXES[1]}{os.getpid()}-")
             try:
-                req = {"id": next(self._ids), "source": source, "name": options.name,
-                       "scratch": scratch, "limits": asdict(options.limits),
-                       "cache_dir": self.cache_dir if options.cache else None}
-                assert proc.stdin is not None and proc.stdout is not None
-                try:
-                    proc.stdin.write(json.dumps(req) + "\n")
-                    proc.stdin.flush()
-                    line = proc.stdout.readline()
-                except (BrokenPipeError, OSError):
-                    line = ""
-                if not line:
-                    self.close()
-                    raise CompileError("the compile worker died; it will be restarted on the next call")
-                try:
-                    reply = json.loads(line)
-                except ValueError:
-                    reply = {}
+                reply = self._ask(proc, {
+                    "id": next(self._ids), "source": source, "name": options.name,
+                    "scratch": scratch, "limits": asdict(options.limits),
+                    "cache_dir": self.cache_dir if options.cache else None})
                 self.isolation = _isolation_line(scratch)
                 log.debug("compile child isolation: %s", self.isolation)
                 model = _result(reply if isinstance(reply, dict) else {}, scratch, options.limits,
@@ -200,6 +193,62 @@ class Worker:
                 return model
             finally:
                 shutil.rmtree(scratch, ignore_errors=True)
+
+    def _ask(self, proc: subprocess.Popen[str], req: dict[str, Any]) -> dict[str, Any]:
+        """Send one request to the zygote and read its one-line reply ({} if not an object)."""
+        assert proc.stdin is not None and proc.stdout is not None
+        try:
+            proc.stdin.write(json.dumps(req) + "\n")
+            proc.stdin.flush()
+            line = proc.stdout.readline()
+        except (BrokenPipeError, OSError):
+            line = ""
+        if not line:
+            self.close()
+            raise CompileError("the compile worker died; it will be restarted on the next call")
+        try:
+            reply = json.loads(line)
+        except ValueError:
+            reply = {}
+        return reply if isinstance(reply, dict) else {}
+
+    def _prebuild(self, proc: subprocess.Popen[str], source: str, options: CompileOptions) -> None:
+        """A parallel cold compile: a worker's first compile of a program of at least
+        ``2 * PREBUILD_SHARE`` parts runs first in up to :data:`PREBUILD_JOBS` children at
+        once (one per core), each building the final solids of its share of the parts (round
+        robin in plan order) for the part cache; the compile proper then finds every part
+        there. The shares are gated by nothing: a part that fails in its share is not stored
+        and fails again, with its finding, in the compile proper. A share that is killed or
+        times out is the compile's error (the compile proper would end the same way)."""
+        from .cache import store_model
+        from .splice import program_parts
+        try:
+            names = program_parts(source)
+        except (ProceduraError, SyntaxError, ValueError):
+            return  # the compile proper reports it
+        jobs = min(PREBUILD_JOBS, os.cpu_count() or 1, len(names) // PREBUILD_SHARE)
+        if jobs < 2:
+            return
+        scratches = [tempfile.mkdtemp(prefix=f"{TEMP_PREFIXES[1]}{os.getpid()}-") for _ in range(jobs)]
+        try:
+            reply = self._ask(proc, {
+                "id": next(self._ids), "op": "prebuild", "source": source, "name": options.name,
+                "limits": asdict(options.limits), "cache_dir": self.cache_dir,
+                "jobs": [{"scratch": s, "only": names[i::jobs]} for i, s in enumerate(scratches)]})
+            rows = reply.get("jobs")
+            for i, scratch in enumerate(scratches):
+                row = rows[i] if isinstance(rows, list) and i < len(rows) and isinstance(rows[i], dict) else {}
+                share = _result(row, scratch, options.limits, name=options.name, cache_dir=self.cache_dir)
+                store_model(self.cache_dir, share, options.limits)
+        finally:
+            for scratch in scratches:
+                shutil.rmtree(scratch, ignore_errors=True)
+
+
+#: A worker's first compile is shared out among at most this many children at once ...
+PREBUILD_JOBS = 4
+#: ... each with at least this many parts (so a program needs twice as many to be shared).
+PREBUILD_SHARE = 3
 
 
 def _isolation_line(scratch: str) -> str:

@@ -102,8 +102,9 @@ def _child(req: dict[str, Any]) -> None:
     try:
         from ..config import SandboxLimits
         limits = SandboxLimits(**req["limits"])
+        only = frozenset(req["only"]) if req.get("only") is not None else None
         model = compile_program(req["source"], name=req.get("name", "model"), cache_dir=cache_fd,
-                                limits=limits)
+                                limits=limits, only=only)
         payload = to_json(model, by_key=cache_fd is not None)  # cached solids: by key
     except MemoryError:
         payload = {"fatal": Finding("memory", "the program ran out of memory (address-space limit "
@@ -171,22 +172,47 @@ class _Spare:
             os.close(self._w)
 
 
+def _start(req: dict[str, Any], spare: _Spare | None) -> int | None:
+    """Hand ``req`` to ``spare`` (or to a newly forked child); the child's pid, or None."""
+    if spare is not None and spare.start(req):
+        return spare.pid
+    fresh = _Spare()
+    return fresh.pid if fresh.start(req) else None
+
+
 def _run_one(req: dict[str, Any], spare: _Spare | None = None) -> dict[str, Any]:
+    if req.get("op") == "prebuild":
+        return _prebuild(req, spare)
     t0 = time.monotonic()
-    if spare is None or not spare.start(req):
-        t0 = time.monotonic()
-        spare = _Spare()
-        if not spare.start(req):
-            return {"id": req["id"], "status": "error", "detail": "the compile child did not start"}
-    pid = spare.pid
+    pid = _start(req, spare)
+    if pid is None:
+        return {"id": req["id"], "status": "error", "detail": "the compile child did not start"}
+    return {"id": req["id"], **_finish(pid, t0, float(req["limits"]["wall_s"]))}
+
+
+def _prebuild(req: dict[str, Any], spare: _Spare | None) -> dict[str, Any]:
+    """One child per job (``{"scratch", "only"}``), all at once, under one wall-clock limit:
+    the shares of a parallel cold compile. Replies with each job's status, in order."""
+    t0 = time.monotonic()
+    pids = []
+    for i, job in enumerate(req["jobs"]):
+        pids.append(_start({**req, "op": "compile", "scratch": job["scratch"], "only": job["only"]},
+                           spare if i == 0 else None))
     wall = float(req["limits"]["wall_s"])
+    jobs = [{"status": "error", "detail": "the compile child did not start"} if pid is None
+            else _finish(pid, t0, wall) for pid in pids]
+    return {"id": req["id"], "jobs": jobs}
+
+
+def _finish(pid: int, t0: float, wall: float) -> dict[str, Any]:
+    """Wait for child ``pid`` until ``t0 + wall``: its status, detail and seconds."""
     status = _wait(pid, t0 + wall)
     if status is None:
         _kill_group(pid)
         os.waitpid(pid, 0)
-        return {"id": req["id"], "status": "timeout", "detail": f"wall-clock limit {wall:g} s",
+        return {"status": "timeout", "detail": f"wall-clock limit {wall:g} s",
                 "seconds": time.monotonic() - t0}
-    out: dict[str, Any] = {"id": req["id"], "seconds": time.monotonic() - t0}
+    out: dict[str, Any] = {"seconds": time.monotonic() - t0}
     _kill_group(pid)  # anything the child left behind
     if os.WIFSIGNALED(status):
         sig = os.WTERMSIG(status)
