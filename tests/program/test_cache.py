@@ -275,6 +275,15 @@ def test_a_parts_digest_and_shape_follow_its_bytes_and_name(tmp_path):
     assert twin.local_shape() is not one.part("base").local_shape()
 
 
+def _first_and_plain(tmp_path, src: str):
+    """A fresh worker's first compile of ``src`` (shared out), then one without the cache."""
+    w = Worker(cache_dir=tmp_path / "cache")
+    try:
+        return w.compile(src), w.compile(src, CompileOptions(cache=False))
+    finally:
+        w.close()
+
+
 def _volume(model, name: str) -> float:
     return kernel.volume(model.part(name).local_shape())
 
@@ -284,13 +293,7 @@ def test_a_first_compile_is_shared_out_and_builds_the_same_bytes(tmp_path):
     compile proper then finds every part in the cache, and the parts are byte for byte those
     of a compile without the cache."""
     from procedura_brep.testing.programs import tower
-    src = tower(8)
-    w = Worker(cache_dir=tmp_path / "cache")
-    try:
-        first = w.compile(src)
-        plain = w.compile(src, CompileOptions(cache=False))
-    finally:
-        w.close()
+    first, plain = _first_and_plain(tmp_path, tower(8))
     assert first.ok and first.timings["cache_hits"] == 8 and rebuilt(first) == set()
     assert [p.brep for p in first.parts] == [p.brep for p in plain.parts]
     assert [p.placement.tolist() for p in first.parts] == [p.placement.tolist() for p in plain.parts]
@@ -306,12 +309,7 @@ def test_a_share_leaves_out_a_part_that_reads_mutable_state_and_one_that_fails(t
            .replace("def p5():\n    return block(5)",
                     "def p5():\n    return block(5) + Box(SIZES[-1], 2, 2)")
            .replace("def p6():\n    return block(6)", "def p6():\n    return block(6) + undefined_name"))
-    w = Worker(cache_dir=tmp_path / "cache")
-    try:
-        first = w.compile(src)
-        plain = w.compile(src, CompileOptions(cache=False))
-    finally:
-        w.close()
+    first, plain = _first_and_plain(tmp_path, src)
     assert [f.part for f in first.findings if f.code == "part-exception"] == ["p6"], first.findings
     assert "undefined_name" in next(f.message for f in first.findings if f.part == "p6")
     assert abs(_volume(first, "p5") - _volume(plain, "p5")) < 1e-6
