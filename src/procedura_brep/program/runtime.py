@@ -232,9 +232,8 @@ def _prebuilt(b: _Build, reg: registry.Registry, hits: set[str], params: dict[st
             and n not in volatile}
     _eval_parts(b, reg, set(reg.parts) - todo, params, glb, skip=set(reg.parts) - todo)
     contextvars.Context().run(_apply_features, b, reg, mates, set(reg.parts) - todo)
-    bad = {f.part for f in b.findings if f.part} | {m["decl"].child for m in mates
-                                                   if any(f.mate == m["decl"].name for f in b.findings)} \
-        | {m["decl"].parent for m in mates if any(f.mate == m["decl"].name for f in b.findings)}
+    named = {f.part for f in b.findings} | {f.mate for f in b.findings}  # a failure names these
+    bad = named | {n for m in mates if m["decl"].name in named for n in (m["decl"].child, m["decl"].parent)}
     parts = [CompiledPart(name=n, brep=kernel.write_brep(kernel.bake_location(b.solids[n].wrapped)),
                           placement=np.eye(4), frames={}, material=reg.parts[n].material,
                           detail=reg.parts[n].detail, cache_key=part_keys[n])

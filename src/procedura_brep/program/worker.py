@@ -208,7 +208,7 @@ def _finish(pid: int, t0: float, wall: float) -> dict[str, Any]:
     """Wait for child ``pid`` until ``t0 + wall``: its status, detail and seconds."""
     status = _wait(pid, t0 + wall)
     if status is None:
-        _kill_group(pid)
+        _kill_group(pid, child_too=True)
         os.waitpid(pid, 0)
         return {"status": "timeout", "detail": f"wall-clock limit {wall:g} s",
                 "seconds": time.monotonic() - t0}
@@ -249,11 +249,15 @@ def _wait(pid: int, deadline: float) -> int | None:
             os.close(fd)
 
 
-def _kill_group(pid: int) -> None:
-    try:
-        os.killpg(pid, signal.SIGKILL)
-    except (ProcessLookupError, PermissionError):
-        pass
+def _kill_group(pid: int, *, child_too: bool = False) -> None:
+    """Kill the child's process group (its own, from ``setsid``); with ``child_too``, also the
+    child itself (not yet reaped, so its pid is still its own), in case it never got as far as
+    ``setsid``."""
+    for kill in (os.killpg, os.kill) if child_too else (os.killpg,):
+        try:
+            kill(pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass
 
 
 def _stub_unused_imports() -> None:
