@@ -153,3 +153,24 @@ def test_ctrl_c_while_a_staged_run_waits_for_the_model_writes_an_interrupted_rep
     report = json.loads((out / "report.json").read_text())
     assert report["status"] == "interrupted" and report["mode"] == "staged"
     assert "plan stage" in report["reason"] and "--resume" in report["reason"]
+
+
+def test_a_ctrl_c_while_a_child_starts_is_not_lost_and_the_child_never_sees_one():
+    """children_ignore_sigint: SIGINT arriving inside the block reaches this process once the
+    block ends (ignoring it instead lost a Ctrl-C that came while the worker started), and
+    the child started inside it does not act on SIGINT."""
+    code = (
+        "import os, signal, subprocess, sys, time\n"
+        "from procedura_brep import interrupt\n"
+        "got = []\n"
+        "signal.signal(signal.SIGINT, lambda *a: got.append(1))\n"
+        "with interrupt.children_ignore_sigint():\n"
+        "    child = subprocess.Popen([sys.executable, '-c', 'import time; time.sleep(1.5)'])\n"
+        "    os.kill(os.getpid(), signal.SIGINT)\n"
+        "    time.sleep(0.1)\n"
+        "time.sleep(0.1)\n"
+        "os.kill(child.pid, signal.SIGINT)\n"
+        "print(len(got), child.wait())\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60,
+                         cwd=ROOT)
+    assert out.stdout.split() == ["1", "0"], (out.stdout, out.stderr)

@@ -11,9 +11,9 @@ thread that blocks on that pipe (without the GIL) runs the shutdown: it waits fo
 the worker's children), prints ``error: interrupted`` and ends the process with exit code 130
 (143 for SIGTERM). Libraries never see the signal.
 
-Child processes started inside :func:`children_ignore_sigint` (the compile worker) ignore the
-terminal's SIGINT, which the terminal sends to the whole foreground process group: their parent
-owns their lifetime and ends them itself.
+Child processes started inside :func:`children_ignore_sigint` (the compile worker) never act on
+the terminal's SIGINT, which the terminal sends to the whole foreground process group: their
+parent owns their lifetime and ends them itself.
 
 Without :func:`install` (library use, tests in-process) nothing changes: Ctrl-C raises
 ``KeyboardInterrupt`` and the pipeline still writes its ``interrupted`` report on the way out.
@@ -134,16 +134,20 @@ def add_cleanup(fn: Callable[[], None]) -> None:
 
 @contextlib.contextmanager
 def children_ignore_sigint() -> Iterator[None]:
-    """Processes started in this block inherit SIGINT ignored (an ignored signal survives exec,
-    and Python keeps it ignored at start-up). Main thread only; elsewhere a no-op."""
+    """Processes started in this block start with SIGINT blocked: a blocked signal stays
+    blocked across fork and exec, and Python does not unblock it, so theirs stays pending for
+    good. In this process only the main thread blocks it, for the block's duration: a Ctrl-C
+    that arrives meanwhile reaches the watcher thread (:func:`install`), or this thread when
+    the block ends; it is never lost (ignoring SIGINT here instead lost a Ctrl-C that came
+    while the worker was starting). Main thread only; elsewhere a no-op."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 __all__ = ["install", "installed", "shutdown", "critical", "on_interrupt", "add_cleanup",
