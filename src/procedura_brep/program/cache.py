@@ -51,7 +51,9 @@ def load(cache_dir: str | os.PathLike[str] | int, key: str, suffix: str = ".brep
 
 def load_figures(cache_dir: str | os.PathLike[str] | int, key: str) -> dict[str, Any] | None:
     """The figures stored beside ``key``'s BRep (:func:`store_model`), or None when there are
-    none or they do not read as figures (the caller then measures the solid itself)."""
+    none or they do not read as figures (:func:`~procedura_brep.program.caps.figures_from_json`;
+    the caller then measures the solid itself)."""
+    from .caps import figures_from_json
     raw = load(cache_dir, key, ".fig")
     if raw is None or len(raw) > 4096:
         return None
@@ -59,10 +61,7 @@ def load_figures(cache_dir: str | os.PathLike[str] | int, key: str) -> dict[str,
         d = json.loads(raw)
     except ValueError:
         return None
-    ok = (isinstance(d, dict) and all(isinstance(d.get(k), int) for k in ("solids", "faces", "triangles"))
-          and all(isinstance(d.get(k), list) and len(d[k]) == 3
-                  and all(isinstance(x, (int, float)) for x in d[k]) for k in ("lo", "hi")))
-    return d if ok else None
+    return d if figures_from_json(d) is not None else None
 
 
 def has(cache_dir: str | os.PathLike[str], key: str) -> bool:
@@ -101,7 +100,6 @@ def store_model(cache_dir: str | os.PathLike[str], model: Any, limits: Any = Non
     """
     from .. import kernel
     from ..config import SANDBOX
-    from ..errors import ProceduraError
     from . import caps
     limits = limits or SANDBOX
     new = 0
@@ -114,7 +112,7 @@ def store_model(cache_dir: str | os.PathLike[str], model: Any, limits: Any = Non
                 fig = caps.measure(shape, limits)
                 if caps.part_violation(p.name, fig, limits) is None:
                     figures = caps.figures_json(fig)
-            except ProceduraError:
+            except Exception:  # noqa: BLE001 - OCCT raises its own types: store no figures
                 figures = None
             store(cache_dir, p.cache_key, data, figures)
             new += 1

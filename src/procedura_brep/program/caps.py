@@ -53,9 +53,15 @@ def figures_json(fig: Figures) -> dict[str, Any]:
             "triangles": fig.triangles}
 
 
-def figures_from_json(d: dict[str, Any]) -> Figures:
-    return Figures(int(d["solids"]), int(d["faces"]), tuple(float(x) for x in d["lo"]),  # type: ignore[arg-type]
-                   tuple(float(x) for x in d["hi"]), int(d["triangles"]))  # type: ignore[arg-type]
+def figures_from_json(d: Any) -> Figures | None:
+    """:func:`figures_json`'s dict read back, or None when ``d`` is not one."""
+    ok = (isinstance(d, dict) and all(isinstance(d.get(k), int) for k in ("solids", "faces", "triangles"))
+          and all(isinstance(d.get(k), list) and len(d[k]) == 3
+                  and all(isinstance(x, (int, float)) for x in d[k]) for k in ("lo", "hi")))
+    if not ok:
+        return None
+    return Figures(d["solids"], d["faces"], tuple(float(x) for x in d["lo"]),  # type: ignore[arg-type]
+                   tuple(float(x) for x in d["hi"]), d["triangles"])  # type: ignore[arg-type]
 
 
 def _count(shape: Any, kind: Any) -> int:

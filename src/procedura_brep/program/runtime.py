@@ -230,8 +230,9 @@ def _prebuilt(b: _Build, reg: registry.Registry, hits: set[str], params: dict[st
     from .. import kernel
     todo = {n for n in only if n in reg.parts and n not in hits and part_keys.get(n)
             and n not in volatile}
-    _eval_parts(b, reg, set(reg.parts) - todo, params, glb, skip=set(reg.parts) - todo)
-    contextvars.Context().run(_apply_features, b, reg, mates, set(reg.parts) - todo)
+    rest = set(reg.parts) - todo
+    _eval_parts(b, reg, rest, params, glb, skip=rest)
+    contextvars.Context().run(_apply_features, b, reg, mates, rest)
     named = {f.part for f in b.findings} | {f.mate for f in b.findings}  # a failure names these
     bad = named | {n for m in mates if m["decl"].name in named for n in (m["decl"].child, m["decl"].parent)}
     parts = [CompiledPart(name=n, brep=kernel.write_brep(kernel.bake_location(b.solids[n].wrapped)),
@@ -300,10 +301,10 @@ def _load_cached(b: _Build, keys: dict[str, str], cache_dir: str | int | None, *
         data = cache.load(cache_dir, key)
         if data is None:
             continue
-        fig = cache.load_figures(cache_dir, key) if name not in painted else None
+        fig = caps.figures_from_json(cache.load_figures(cache_dir, key)) if name not in painted else None
         if fig is not None:
             b.solids[name] = None
-            b.figures[name] = caps.figures_from_json(fig)
+            b.figures[name] = fig
         else:
             try:
                 b.solids[name] = _wrap(kernel.read_brep(data))
