@@ -276,6 +276,12 @@ def test_the_spare_child_dies_with_its_worker_and_holds_none_of_its_pipes(tmp_pa
         deadline = time.monotonic() + 10
         while not _children(zygote) and time.monotonic() < deadline:
             time.sleep(0.05)
+        # the compile's own child may still be dying (it is reaped after the answer): the spare
+        # is the child forked after that
+        dying = set(_children(zygote))
+        deadline = time.monotonic() + 10
+        while not (set(_children(zygote)) - dying) and time.monotonic() < deadline:
+            time.sleep(0.05)
         spares = _children(zygote)
         assert len(spares) == 1, spares
         os.kill(zygote, signal.SIGKILL)
@@ -294,6 +300,50 @@ def test_the_spare_child_dies_with_its_worker_and_holds_none_of_its_pipes(tmp_pa
         assert w.compile(LAMP).ok  # a new worker on the next call
     finally:
         w.close()
+
+
+class _Forked:
+    """A forked stand-in for a compile child (``pid``, ``done``): it writes ``report`` to its
+    done pipe (nothing when empty), then lingers ``linger`` seconds and exits with ``code``."""
+
+    def __init__(self, report: bytes, linger: float, code: int = 0) -> None:
+        r, w = os.pipe()
+        pid = os.fork()
+        if pid == 0:  # the stand-in: no kernel, no imports
+            try:
+                os.close(r)
+                if report:
+                    os.write(w, report)
+                time.sleep(linger)
+            finally:
+                os._exit(code)
+        os.close(w)
+        self.pid, self.done = pid, r
+
+
+def test_the_answer_leaves_when_the_child_reports_done_not_when_it_has_exited():
+    """A child that reported done is killed and answered for at once; its exit (the teardown
+    of a copy of the zygote, several ms) is reaped after the answer. Planted fault: without the
+    done pipe, the answer waits for the exit, here a 30 s linger, and ends in a timeout."""
+    from procedura_brep.program import worker
+    child = _Forked(b"1", linger=30)
+    t = time.monotonic()
+    out = worker._finish(child, t, wall=5.0)
+    assert out["status"] == "done" and time.monotonic() - t < 3, out
+    assert child.pid in worker._UNREAPED
+    worker.reap()
+    assert not worker._UNREAPED
+    with pytest.raises(ChildProcessError):
+        os.waitpid(child.pid, os.WNOHANG)  # reaped: gone, not lingering
+
+
+def test_a_child_that_dies_without_reporting_done_is_answered_by_its_exit_status():
+    """End-of-file on the done pipe (the child died first) falls back to its wait status."""
+    from procedura_brep.program import worker
+    child = _Forked(b"", linger=0.2, code=7)
+    out = worker._finish(child, time.monotonic(), wall=10.0)
+    assert out["status"] == "exit" and out["detail"] == "7", out
+    assert child.pid not in worker._UNREAPED
 
 
 def test_a_share_that_loops_ends_the_first_compile_within_one_limit(tmp_path):

@@ -3,7 +3,8 @@ disposable child per compile (forked ahead of its request: :class:`_Spare`).
 
 Protocol: one JSON object per line on stdin (``{"id", "source", "name", "scratch", "limits"}``),
 one JSON object per line on stdout (``{"id", "status", "detail"}``); the child writes its
-``result.json`` into the scratch directory. The zygote itself never runs program code and never
+``result.json`` into the scratch directory, then says so on its done pipe, and the zygote
+answers at once (status ``done``) and reaps the child after the answer has left. The zygote itself never runs program code and never
 meshes (a fork after OCCT's parallel mesher hangs), so every child starts clean.
 
 Run as ``python -m procedura_brep.program.worker``.
@@ -34,8 +35,15 @@ def child_uid(pid: int) -> int:
     return CHILD_UID_BASE + pid % CHILD_UID_SPAN
 
 
-def _limit_child(limits: dict[str, Any], scratch: str, cache_dir: str | None) -> int | None:
+#: The fd on which a compile child tells the zygote that its ``result.json`` is complete.
+DONE_FD = 3
+
+
+def _limit_child(limits: dict[str, Any], scratch: str, cache_dir: str | None,
+                 done: int | None = None) -> int | None:
     """Apply every limit to this (child) process; returns an fd of the part cache, if any.
+    ``done`` (the write end of the zygote's done pipe) is kept open as :data:`DONE_FD`; every
+    other inherited descriptor is closed.
 
     Then the OS layers of :mod:`.isolation` (a private network namespace, no-new-privs,
     Landlock file access beneath the scratch dir (read-write), the cache and the library
@@ -63,7 +71,9 @@ def _limit_child(limits: dict[str, Any], scratch: str, cache_dir: str | None) ->
     os.dup2(null, 0)
     os.dup2(log, 1)
     os.dup2(log, 2)
-    os.closerange(3, 4096)
+    if done is not None:
+        os.dup2(done, DONE_FD)
+    os.closerange(DONE_FD + (done is not None), 4096)
     log = 1
     cache_fd = None
     if cache_dir:
@@ -94,9 +104,9 @@ def _drop_root(scratch: str) -> None:
     resource.setrlimit(resource.RLIMIT_NPROC, (NOBODY_NPROC, NOBODY_NPROC))
 
 
-def _child(req: dict[str, Any]) -> None:
+def _child(req: dict[str, Any], done: int | None = None) -> None:
     scratch = req["scratch"]
-    cache_fd = _limit_child(req["limits"], scratch, req.get("cache_dir"))
+    cache_fd = _limit_child(req["limits"], scratch, req.get("cache_dir"), done)
     from .model import Finding, to_json
     from .runtime import compile_program
     try:
@@ -114,8 +124,10 @@ def _child(req: dict[str, Any]) -> None:
                                     f"{req['limits']['recursion']})").as_dict()}
     # relative to the scratch dir (the cwd): its ancestors may not be searchable by nobody
     with open("result.json.tmp", "w", encoding="utf-8") as fh:
-        json.dump(payload, fh)
+        fh.write(json.dumps(payload))  # one write: much faster than json.dump's many
     os.replace("result.json.tmp", "result.json")
+    if done is not None:  # the zygote may answer now; it kills this process and reaps it
+        os.write(DONE_FD, b"1")
 
 
 class _Spare:
@@ -127,11 +139,13 @@ class _Spare:
 
     def __init__(self) -> None:
         r, w = os.pipe()
+        done_r, done_w = os.pipe()
         pid = os.fork()
         if pid == 0:  # the spare
             code = 0
             try:
                 os.close(w)
+                os.close(done_r)
                 null = os.open(os.devnull, os.O_RDWR)
                 os.dup2(null, 0)
                 os.dup2(null, 1)
@@ -142,13 +156,14 @@ class _Spare:
                         break
                     chunks.append(chunk)
                 if chunks:
-                    _child(json.loads(b"".join(chunks)))
+                    _child(json.loads(b"".join(chunks)), done_w)
             except BaseException:  # noqa: BLE001
                 code = 3
             finally:
                 os._exit(code)
         os.close(r)
-        self.pid, self._w = pid, w
+        os.close(done_w)  # end-of-file on done_r once the child is gone
+        self.pid, self._w, self.done = pid, w, done_r
 
     def start(self, req: dict[str, Any]) -> bool:
         """Hand ``req`` over; False when the spare is gone (it is reaped)."""
@@ -167,52 +182,82 @@ class _Spare:
                 os.waitpid(self.pid, 0)
             except ChildProcessError:
                 pass
+            os.close(self.done)
             return False
         finally:
             os.close(self._w)
 
 
-def _start(req: dict[str, Any], spare: _Spare | None) -> int | None:
-    """Hand ``req`` to ``spare`` (or to a newly forked child); the child's pid, or None."""
+def _start(req: dict[str, Any], spare: _Spare | None) -> _Spare | None:
+    """Hand ``req`` to ``spare`` (or to a newly forked child); that child, or None."""
     if spare is not None and spare.start(req):
-        return spare.pid
+        return spare
     fresh = _Spare()
-    return fresh.pid if fresh.start(req) else None
+    return fresh if fresh.start(req) else None
+
+
+#: Children that reported done and were killed, not yet reaped (see :func:`_finish`).
+_UNREAPED: list[int] = []
+
+
+def reap() -> None:
+    """Wait for the children :func:`_finish` killed after their done report (each is dying:
+    this takes as long as the kernel needs to tear down its address space)."""
+    while _UNREAPED:
+        try:
+            os.waitpid(_UNREAPED.pop(), 0)
+        except ChildProcessError:
+            pass
 
 
 def _run_one(req: dict[str, Any], spare: _Spare | None = None) -> dict[str, Any]:
     if req.get("op") == "prebuild":
         return _prebuild(req, spare)
     t0 = time.monotonic()
-    pid = _start(req, spare)
-    if pid is None:
+    child = _start(req, spare)
+    if child is None:
         return {"id": req["id"], "status": "error", "detail": "the compile child did not start"}
-    return {"id": req["id"], **_finish(pid, t0, float(req["limits"]["wall_s"]))}
+    return {"id": req["id"], **_finish(child, t0, float(req["limits"]["wall_s"]))}
 
 
 def _prebuild(req: dict[str, Any], spare: _Spare | None) -> dict[str, Any]:
     """One child per job (``{"scratch", "only"}``), all at once, under one wall-clock limit:
     the shares of a parallel cold compile. Replies with each job's status, in order."""
     t0 = time.monotonic()
-    pids = []
+    children = []
     for i, job in enumerate(req["jobs"]):
-        pids.append(_start({**req, "op": "compile", "scratch": job["scratch"], "only": job["only"]},
-                           spare if i == 0 else None))
+        children.append(_start({**req, "op": "compile", "scratch": job["scratch"],
+                                "only": job["only"]}, spare if i == 0 else None))
     wall = float(req["limits"]["wall_s"])
-    jobs = [{"status": "error", "detail": "the compile child did not start"} if pid is None
-            else _finish(pid, t0, wall) for pid in pids]
+    jobs = [{"status": "error", "detail": "the compile child did not start"} if child is None
+            else _finish(child, t0, wall) for child in children]
     return {"id": req["id"], "jobs": jobs}
 
 
-def _finish(pid: int, t0: float, wall: float) -> dict[str, Any]:
-    """Wait for child ``pid`` until ``t0 + wall``: its status, detail and seconds."""
-    status = _wait(pid, t0 + wall)
+def _finish(child: _Spare, t0: float, wall: float) -> dict[str, Any]:
+    """Wait for ``child`` until ``t0 + wall``: its status, detail and seconds.
+
+    A child that reports done (its ``result.json`` is complete) is killed with its process
+    group at once and answered for with status ``done``; it is reaped later (:func:`reap`),
+    so the teardown of its address space (several ms for a copy of the warm zygote) runs on
+    another core while its caller reads the result.
+    """
+    pid = child.pid
+    try:
+        status = _wait(pid, t0 + wall, child.done)
+    finally:
+        os.close(child.done)
     if status is None:
         _kill_group(pid, child_too=True)
         os.waitpid(pid, 0)
         return {"status": "timeout", "detail": f"wall-clock limit {wall:g} s",
                 "seconds": time.monotonic() - t0}
     out: dict[str, Any] = {"seconds": time.monotonic() - t0}
+    if status == DONE:
+        _kill_group(pid, child_too=True)  # the child and anything it left behind
+        _UNREAPED.append(pid)
+        out.update(status="done", detail="0")
+        return out
     _kill_group(pid)  # anything the child left behind
     if os.WIFSIGNALED(status):
         sig = os.WTERMSIG(status)
@@ -223,10 +268,15 @@ def _finish(pid: int, t0: float, wall: float) -> dict[str, Any]:
     return out
 
 
-def _wait(pid: int, deadline: float) -> int | None:
-    """The child's wait status, or None once ``deadline`` (monotonic) passes first. Blocks on a
-    pidfd where the kernel has them (Linux 5.3), so the reply leaves as soon as the child
-    exits; else polls every 5 ms."""
+#: :func:`_wait`'s answer for a child that reported done (not a wait status).
+DONE = -1
+
+
+def _wait(pid: int, deadline: float, done: int | None = None) -> int | None:
+    """The child's wait status, :data:`DONE` once it writes to the ``done`` pipe, or None once
+    ``deadline`` (monotonic) passes first. Blocks on a pidfd where the kernel has them (Linux
+    5.3) and on the done pipe, so the reply leaves as soon as the child is done or exits;
+    else polls every 5 ms."""
     import select
     try:
         fd = os.pidfd_open(pid)
@@ -234,16 +284,18 @@ def _wait(pid: int, deadline: float) -> int | None:
         fd = None
     try:
         while True:
-            done, status = os.waitpid(pid, os.WNOHANG)
-            if done:
+            exited, status = os.waitpid(pid, os.WNOHANG)
+            if exited:
                 return status
             left = deadline - time.monotonic()
             if left <= 0:
                 return None
-            if fd is not None:
-                select.select([fd], [], [], left)
-            else:
-                time.sleep(min(0.005, left))
+            watch = [x for x in (fd, done) if x is not None]
+            ready = select.select(watch, [], [], left if fd is not None else min(0.005, left))[0]
+            if done is not None and done in ready:
+                if os.read(done, 1):
+                    return DONE
+                done = None  # end-of-file: the child died without a report; wait for its exit
     finally:
         if fd is not None:
             os.close(fd)
@@ -283,6 +335,7 @@ def main() -> None:
     import build123d  # noqa: F401 - the whole point: pay the import once
 
     from . import guards, runtime  # noqa: F401
+    from ..mates import features, joints  # noqa: F401 - every compile uses them: load them once
     from .. import kernel  # noqa: F401
     guards.harden_kernel()
     guards.baseline()
@@ -307,6 +360,7 @@ def main() -> None:
             reply = {"id": req.get("id"), "status": "error", "detail": str(exc)}
         out.write(json.dumps(reply) + "\n")
         out.flush()
+        reap()  # after the reply: a dying child's teardown is off the caller's path
         try:
             spare = _Spare()  # the next compile's child, forked after this reply left
         except OSError:
