@@ -49,6 +49,13 @@ CRAFTED = [
     ("nan_frame", ("parts", 0, "frames", "top"), NAN_M, "not a finite 4x4 matrix"),
     ("inf_placement", ("parts", 1, "placement"), [[1, 0, 0, math.inf], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], "not a finite 4x4 matrix"),
     ("scaled_placement", ("parts", 1, "placement"), [[2, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], "not a rigid transform"),
+    # every rigidity condition on its own, each naming its field (the matrices of a result are
+    # checked together, after the parts and mates are read)
+    ("mirrored_placement", ("parts", 2, "placement"), [[-1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], "part arm.placement is not a rigid transform"),
+    ("projective_frame", ("parts", 0, "frames", "top"), [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0.5, 1]], "part base.frames[top] is not a rigid transform"),
+    ("far_world_frame", ("mates", 1, "world_frame"), [[1, 0, 0, 2e9], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], "world_frame is not a rigid transform"),
+    ("ragged_placement", ("parts", 0, "placement"), [[1, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], "not a 4x4 matrix of numbers"),
+    ("short_placement", ("parts", 0, "placement"), [[1, 0, 0, 0]], "not a finite 4x4 matrix"),
     ("unknown_material", ("parts", 0, "material"), "unobtanium", "not a library material"),
     ("non_string_material", ("parts", 0, "material"), {"x": 1}, "not a library material"),
     ("bad_detail", ("parts", 0, "detail"), "huge", "detail"),

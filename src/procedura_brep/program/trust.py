@@ -86,18 +86,39 @@ def _dict(v: Any, where: str, limit: int = MAX_ITEMS) -> dict[str, Any]:
     return v
 
 
-def _matrix(v: Any, where: str) -> np.ndarray:
-    try:
-        m = np.array(v, dtype=float)
-    except (TypeError, ValueError):
-        raise _bad(where, "is not a 4x4 matrix of numbers") from None
-    if m.shape != (4, 4) or not np.all(np.isfinite(m)):
-        raise _bad(where, "is not a finite 4x4 matrix")
-    r = m[:3, :3]
-    if (np.abs(m[3] - [0, 0, 0, 1]).max() > RIGID_TOL or np.abs(r.T @ r - np.eye(3)).max() > RIGID_TOL
-            or np.linalg.det(r) < 0 or np.abs(m[:3, 3]).max() > 1e9):
-        raise _bad(where, "is not a rigid transform")
-    return m
+class _Rigid:
+    """The matrices of one result: each is read and shape-checked as it comes
+    (:meth:`matrix`), then all are checked together for being rigid transforms (:meth:`check`,
+    one stacked test instead of a dozen small numpy calls per matrix; the error still names
+    the first bad field)."""
+
+    def __init__(self) -> None:
+        self.items: list[tuple[str, np.ndarray]] = []
+
+    def matrix(self, v: Any, where: str) -> np.ndarray:
+        try:
+            m = np.array(v, dtype=float)
+        except (TypeError, ValueError):
+            raise _bad(where, "is not a 4x4 matrix of numbers") from None
+        if m.shape != (4, 4):
+            raise _bad(where, "is not a finite 4x4 matrix")
+        self.items.append((where, m))
+        return m
+
+    def check(self) -> None:
+        """Raise for the first matrix that is not finite or not a rigid transform."""
+        if not self.items:
+            return
+        m = np.stack([m for _, m in self.items])
+        finite = np.isfinite(m).all(axis=(1, 2))
+        if not finite.all():
+            raise _bad(self.items[int(np.argmin(finite))][0], "is not a finite 4x4 matrix")
+        r = m[:, :3, :3]
+        ok = ((np.abs(m[:, 3] - [0, 0, 0, 1]).max(axis=1) <= RIGID_TOL)
+              & (np.abs(np.einsum("nji,njk->nik", r, r) - np.eye(3)).max(axis=(1, 2)) <= RIGID_TOL)
+              & (np.linalg.det(r) >= 0) & (np.abs(m[:, :3, 3]).max(axis=1) <= 1e9))
+        if not ok.all():
+            raise _bad(self.items[int(np.argmin(ok))][0], "is not a rigid transform")
 
 
 def _plain(v: Any, where: str, depth: int = 0) -> Any:
@@ -148,7 +169,8 @@ def _library(rows: Any) -> dict[str, Material]:
     return {**MATERIALS, **declared}
 
 
-def _part(p: Any, i: int, library: dict[str, Material], cache_dir: str | None = None) -> CompiledPart:
+def _part(p: Any, i: int, library: dict[str, Material], rigid: _Rigid,
+          cache_dir: str | None = None) -> CompiledPart:
     where = f"parts[{i}]"
     p = _dict(p, where, 32)
     name = _name(p.get("name"), f"{where}.name")
@@ -172,8 +194,8 @@ def _part(p: Any, i: int, library: dict[str, Material], cache_dir: str | None = 
         raise _bad(f"{where}.lines", "is not a pair of line numbers")
     frames = _dict(p.get("frames", {}), f"{where}.frames", 256)
     return CompiledPart(
-        name=name, brep=data, placement=_matrix(p.get("placement"), f"{where}.placement"),
-        frames={_name(k, f"{where}.frames key"): _matrix(v, f"{where}.frames[{k}]")
+        name=name, brep=data, placement=rigid.matrix(p.get("placement"), f"{where}.placement"),
+        frames={_name(k, f"{where}.frames key"): rigid.matrix(v, f"{where}.frames[{k}]")
                 for k, v in frames.items()},
         material=material, detail=p["detail"],
         description=_text(p.get("description", ""), f"{where}.description", 1000),
@@ -213,7 +235,7 @@ def _pieces(v: Any, where: str) -> int:
     return n
 
 
-def _mate(m: Any, i: int, parts: dict[str, CompiledPart]) -> CompiledMate:
+def _mate(m: Any, i: int, parts: dict[str, CompiledPart], rigid: _Rigid) -> CompiledMate:
     where = f"mates[{i}]"
     m = _dict(m, where, 32)
     name = _name(m.get("name"), f"{where}.name")
@@ -238,7 +260,7 @@ def _mate(m: Any, i: int, parts: dict[str, CompiledPart]) -> CompiledMate:
         name=name, type=mtype, kind=TYPES[mtype].kind, **ends,
         nominal_name=_name(m.get("nominal_name"), f"{where}.nominal_name", IDENT),
         nominal=_num(m.get("nominal"), f"{where}.nominal", lo=0.0), fit=fit, options=options,
-        dof=dof, world_frame=_matrix(m.get("world_frame"), f"{where}.world_frame"),
+        dof=dof, world_frame=rigid.matrix(m.get("world_frame"), f"{where}.world_frame"),
         primary=m.get("primary", True),
         residual_mm=_num(m.get("residual_mm", 0.0), f"{where}.residual_mm", lo=0.0),
         residual_rad=_num(m.get("residual_rad", 0.0), f"{where}.residual_rad", lo=0.0),
@@ -261,14 +283,16 @@ def model_from_json(d: Any, *, name: str | None = None, cache_dir: str | None = 
     parts_in = _list(d.get("parts"), "parts", SANDBOX.max_parts)
     library = _library(d.get("materials", []))
     parts: dict[str, CompiledPart] = {}
+    rigid = _Rigid()
     for i, p in enumerate(parts_in):
-        cp = _part(p, i, library, cache_dir)
+        cp = _part(p, i, library, rigid, cache_dir)
         if cp.name in parts:
             raise _bad(f"part {cp.name}", "appears twice")
         if cp.block_of and (cp.block_of not in parts or parts[cp.block_of].block_of):
             raise _bad(f"part {cp.name}.block_of", f"= {cp.block_of!r} is not an earlier part")
         parts[cp.name] = cp
-    mates = [_mate(m, i, parts) for i, m in enumerate(_list(d.get("mates"), "mates", 4 * SANDBOX.max_parts))]
+    mates = [_mate(m, i, parts, rigid) for i, m in enumerate(_list(d.get("mates"), "mates", 4 * SANDBOX.max_parts))]
+    rigid.check()
     if len({m.name for m in mates}) != len(mates):
         raise _bad("mates", "repeat a name")
     params: dict[str, Any] = {}
