@@ -59,14 +59,17 @@ def splice_and_gate(worker, src: str, reply: str) -> float:
 @contextlib.contextmanager
 def booted_worker() -> Iterator[object]:
     """A worker with its own empty part cache, booted (import cost is not the build's) and
-    with the parent's caches cleared; closed afterwards."""
+    with the parent's caches cleared (the gates' and the model's tessellations and read-back
+    shapes: a cold build tessellates every part); closed afterwards."""
     from procedura_brep.gates import clear_caches
+    from procedura_brep.program.model import clear_mesh_cache
     from procedura_brep.program.sandbox import Worker
     with tempfile.TemporaryDirectory() as cache:
         w = Worker(cache_dir=cache)
         try:
             w.compile(program(2))
             clear_caches()
+            clear_mesh_cache()
             yield w
         finally:
             w.close()
