@@ -28,6 +28,8 @@ in :mod:`procedura_brep.program.sandbox` and :mod:`procedura_brep.program.runtim
 from __future__ import annotations
 
 import ast
+from collections.abc import Callable
+from typing import Any
 
 from ..errors import ProgramFormatError
 
@@ -68,7 +70,7 @@ def check(source: str, filename: str = "<program>", *, tree: ast.Module | None =
             tree = ast.parse(source, filename=filename)
         except SyntaxError as exc:
             raise ProgramFormatError(f"syntax error: {exc.msg}", line=exc.lineno) from None
-    nodes = list(ast.walk(tree))  # walked once: the three passes below read the list
+    nodes = _walk(tree)  # walked once: the three passes below read the list
     for node in nodes:
         _check_node(node)
     bound = _bound_names(nodes)
@@ -77,21 +79,43 @@ def check(source: str, filename: str = "<program>", *, tree: ast.Module | None =
             _check_write(node, bound)
 
 
+def _walk(tree: ast.AST) -> list[ast.AST]:
+    """Every node of ``tree`` in :func:`ast.walk`'s order (breadth first, fields in order), as a
+    list: the same nodes, without a generator per node."""
+    out = [tree]
+    AST = ast.AST
+    i = 0
+    while i < len(out):
+        node = out[i]
+        i += 1
+        for name in node._fields:
+            v = getattr(node, name, None)
+            if isinstance(v, AST):
+                out.append(v)
+            elif isinstance(v, list):
+                out.extend(x for x in v if isinstance(x, AST))
+    return out
+
+
 def _bound_names(nodes: list[ast.AST]) -> set[str]:
     """Every name the program binds anywhere (assignments, arguments, defs, imports, loops),
     from every node of its tree."""
     out: set[str] = set()
     for node in nodes:
-        if isinstance(node, ast.Name) and isinstance(node.ctx, (ast.Store, ast.Del)):
-            out.add(node.id)
-        elif isinstance(node, ast.arg):
-            out.add(node.arg)
-        elif isinstance(node, (ast.FunctionDef, ast.ClassDef, ast.AsyncFunctionDef)):
-            out.add(node.name)
-        elif isinstance(node, ast.alias):
-            out.add(node.asname or node.name.split(".")[0])
-        elif isinstance(node, ast.ExceptHandler) and node.name:
-            out.add(node.name)
+        kind = _of(_BINDS, type(node), _BIND_MEMO)
+        if kind is None:
+            continue
+        if kind == "name":
+            if isinstance(node.ctx, (ast.Store, ast.Del)):  # type: ignore[attr-defined]
+                out.add(node.id)  # type: ignore[attr-defined]
+        elif kind == "arg":
+            out.add(node.arg)  # type: ignore[attr-defined]
+        elif kind == "def":
+            out.add(node.name)  # type: ignore[attr-defined]
+        elif kind == "alias":
+            out.add(node.asname or node.name.split(".")[0])  # type: ignore[attr-defined]
+        elif node.name:  # an except handler's ``as`` name
+            out.add(node.name)  # type: ignore[attr-defined]
     return out
 
 
@@ -127,57 +151,120 @@ def _reserved(name: str | None) -> bool:
     return bool(name) and (name.startswith("_") or name in FORBIDDEN_NAMES)  # type: ignore[union-attr]
 
 
-def _check_node(node: ast.AST) -> None:
-    if isinstance(node, ast.Import):
-        for alias in node.names:
-            if alias.name not in ALLOWED_IMPORTS or _reserved(alias.asname):
-                _deny(node, f"import {alias.name} (programs may import only math and "
-                            f"{PROGRAM_MODULE})")
-    elif isinstance(node, ast.ImportFrom):
-        if node.module not in ALLOWED_IMPORTS | {PROGRAM_MODULE} or node.level:
-            _deny(node, f"from {node.module} import ... (programs may import only math and "
+def _import(node: ast.Import) -> None:
+    for alias in node.names:
+        if alias.name not in ALLOWED_IMPORTS or _reserved(alias.asname):
+            _deny(node, f"import {alias.name} (programs may import only math and "
                         f"{PROGRAM_MODULE})")
-        names = [a.name for a in node.names]
-        if node.module == PROGRAM_MODULE and names != ["*"]:
-            _deny(node, f"from {PROGRAM_MODULE} import {', '.join(names)} (write "
-                        f"`from {PROGRAM_MODULE} import *`)")
-        for alias in node.names:
-            if _reserved(alias.name if alias.name != "*" else None) or _reserved(alias.asname):
-                _deny(node, f"importing the name {alias.name!r}")
-    elif isinstance(node, (ast.Match, ast.match_case, ast.MatchClass, ast.MatchAs,
-                           ast.MatchMapping, ast.MatchStar)):
-        _deny(node, "match statements (their class patterns read attributes by name)")
-    elif isinstance(node, ast.ExceptHandler) and _reserved(node.name):
+
+
+def _import_from(node: ast.ImportFrom) -> None:
+    if node.module not in ALLOWED_IMPORTS | {PROGRAM_MODULE} or node.level:
+        _deny(node, f"from {node.module} import ... (programs may import only math and "
+                    f"{PROGRAM_MODULE})")
+    names = [a.name for a in node.names]
+    if node.module == PROGRAM_MODULE and names != ["*"]:
+        _deny(node, f"from {PROGRAM_MODULE} import {', '.join(names)} (write "
+                    f"`from {PROGRAM_MODULE} import *`)")
+    for alias in node.names:
+        if _reserved(alias.name if alias.name != "*" else None) or _reserved(alias.asname):
+            _deny(node, f"importing the name {alias.name!r}")
+
+
+def _match(node: ast.AST) -> None:
+    _deny(node, "match statements (their class patterns read attributes by name)")
+
+
+def _handler(node: ast.ExceptHandler) -> None:
+    if _reserved(node.name):
         _deny(node, f"the name {node.name!r}")
-    elif isinstance(node, ast.Name):
-        if node.id.startswith("_"):
-            _deny(node, f"the name {node.id!r} (names starting with '_' are reserved)")
-        if node.id in FORBIDDEN_NAMES:
-            _deny(node, f"the builtin {node.id!r}")
-    elif isinstance(node, ast.Attribute):
-        if node.attr.startswith("_"):
-            _deny(node, f"the attribute {node.attr!r} (attributes starting with '_' are reserved)")
-        if node.attr in FORBIDDEN_ATTRIBUTES:
-            _deny(node, f"the attribute {node.attr!r} (frames, code and globals are off limits)")
-        if isinstance(node.ctx, (ast.Store, ast.Del)):
-            _deny(node, f"assigning to the attribute {node.attr!r} (no monkeypatching)")
-    elif isinstance(node, (ast.FunctionDef, ast.ClassDef, ast.AsyncFunctionDef)):
-        if node.name.startswith("_"):
-            _deny(node, f"the definition {node.name!r} (names starting with '_' are reserved)")
-        if isinstance(node, ast.AsyncFunctionDef):
-            _deny(node, "async functions")
-    elif isinstance(node, ast.arg):
-        if node.arg.startswith("_"):
-            _deny(node, f"the argument {node.arg!r}")
-    elif isinstance(node, (ast.Global, ast.Nonlocal)):
-        _deny(node, "global/nonlocal statements")
-    elif isinstance(node, (ast.AsyncFor, ast.AsyncWith, ast.Await)):
-        _deny(node, "async code")
-    elif isinstance(node, ast.keyword) and node.arg and (
-            node.arg.startswith("_") or node.arg in FORBIDDEN_KEYWORDS):
+
+
+def _name(node: ast.Name) -> None:
+    if node.id.startswith("_"):
+        _deny(node, f"the name {node.id!r} (names starting with '_' are reserved)")
+    if node.id in FORBIDDEN_NAMES:
+        _deny(node, f"the builtin {node.id!r}")
+
+
+def _attribute(node: ast.Attribute) -> None:
+    if node.attr.startswith("_"):
+        _deny(node, f"the attribute {node.attr!r} (attributes starting with '_' are reserved)")
+    if node.attr in FORBIDDEN_ATTRIBUTES:
+        _deny(node, f"the attribute {node.attr!r} (frames, code and globals are off limits)")
+    if isinstance(node.ctx, (ast.Store, ast.Del)):
+        _deny(node, f"assigning to the attribute {node.attr!r} (no monkeypatching)")
+
+
+def _definition(node: ast.FunctionDef | ast.ClassDef | ast.AsyncFunctionDef) -> None:
+    if node.name.startswith("_"):
+        _deny(node, f"the definition {node.name!r} (names starting with '_' are reserved)")
+    if isinstance(node, ast.AsyncFunctionDef):
+        _deny(node, "async functions")
+
+
+def _argument(node: ast.arg) -> None:
+    if node.arg.startswith("_"):
+        _deny(node, f"the argument {node.arg!r}")
+
+
+def _scope(node: ast.AST) -> None:
+    _deny(node, "global/nonlocal statements")
+
+
+def _async(node: ast.AST) -> None:
+    _deny(node, "async code")
+
+
+def _keyword(node: ast.keyword) -> None:
+    if node.arg and (node.arg.startswith("_") or node.arg in FORBIDDEN_KEYWORDS):
         _deny(node, f"the keyword {node.arg!r} (programs touch no files)")
-    elif isinstance(node, ast.Constant) and isinstance(node.value, str) and "__" in node.value:
+
+
+def _constant(node: ast.Constant) -> None:
+    if isinstance(node.value, str) and "__" in node.value:
         _deny(node, "string literals containing '__'")
+
+
+#: The rule for each node class that has one (a table: the walk looks each node's class up
+#: once instead of testing it against every rule).
+_RULES: dict[type, Callable[[Any], None]] = {
+    ast.Import: _import, ast.ImportFrom: _import_from,
+    **{t: _match for t in (ast.Match, ast.match_case, ast.MatchValue, ast.MatchSingleton,
+                           ast.MatchSequence, ast.MatchMapping, ast.MatchClass, ast.MatchStar,
+                           ast.MatchAs, ast.MatchOr)},
+    ast.ExceptHandler: _handler, ast.Name: _name, ast.Attribute: _attribute,
+    ast.FunctionDef: _definition, ast.ClassDef: _definition, ast.AsyncFunctionDef: _definition,
+    ast.arg: _argument, ast.Global: _scope, ast.Nonlocal: _scope,
+    ast.AsyncFor: _async, ast.AsyncWith: _async, ast.Await: _async,
+    ast.keyword: _keyword, ast.Constant: _constant,
+}
+#: Node classes that bind a name (:func:`_bound_names`), by how.
+_BINDS: dict[type, str] = {ast.Name: "name", ast.arg: "arg", ast.FunctionDef: "def",
+                           ast.ClassDef: "def", ast.AsyncFunctionDef: "def", ast.alias: "alias",
+                           ast.ExceptHandler: "handler"}
+
+
+def _of(table: dict[type, Any], cls: type, memo: dict[type, Any]) -> Any:
+    """``table``'s entry for ``cls``, or for its nearest base in the table (a subclass of a
+    ruled class, never made by the parser, is held to its base's rule); None when neither.
+    Resolved once per class (``memo``)."""
+    try:
+        return memo[cls]
+    except KeyError:
+        hit = memo[cls] = next((table[t] for t in cls.__mro__ if t in table), None)
+        return hit
+
+
+_RULE_MEMO: dict[type, Any] = {}
+_BIND_MEMO: dict[type, Any] = {}
+
+
+def _check_node(node: ast.AST) -> None:
+    """Apply the rule of ``node``'s class (:data:`_RULES`), if it has one."""
+    rule = _of(_RULES, type(node), _RULE_MEMO)
+    if rule is not None:
+        rule(node)
 
 
 _PARAM_NODES = (ast.Expression, ast.Constant, ast.Name, ast.Load, ast.BinOp, ast.UnaryOp,
