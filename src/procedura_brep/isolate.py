@@ -57,24 +57,65 @@ def run_limited(fn: Callable[[Send], dict[str, Any]], *, stage: str,
         ChildFailure: out of memory, over the wall-clock limit, killed, crashed, or ``fn`` raised
             (``kind == "error"``; ``exc_type`` names the exception class).
     """
-    lim = limits or PARENT
-    r, w = os.pipe()
-    parent = os.getpid()
-    pid = os.fork()
-    if pid == 0:  # child: never returns
-        _die_with(parent)
-        _child(fn, w, r, lim)
-    os.close(w)
-    current = {"stage": stage}
-    with interrupt.on_interrupt(lambda: _kill(pid)):
+    child = Limited(fn, stage=stage, limits=limits)
+    with interrupt.on_interrupt(child.kill):
+        return child.collect(on_message)
+
+
+class Limited:
+    """A forked, limited child running ``fn(send)`` (as :func:`run_limited`) while the caller
+    goes on: :meth:`collect` waits for its dict, :meth:`kill` ends it. A child that forks one
+    of its own (an overlapped stage) relays that one's :class:`ChildFailure` as its own."""
+
+    def __init__(self, fn: Callable[[Send], dict[str, Any]], *, stage: str,
+                 limits: ParentLimits | None = None) -> None:
+        self.stage, self.limits = stage, limits or PARENT
+        r, w = os.pipe()
+        parent = os.getpid()
+        pid = os.fork()
+        if pid == 0:  # child: never returns
+            _die_with(parent)
+            _child(fn, w, r, self.limits)
+        os.close(w)
+        self.pid, self._r = pid, r
+        self._deadline = time.monotonic() + self.limits.wall_s
+        self._reaped = False  # once waited for, its pid may belong to another process
+
+    def collect(self, on_message: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:
+        """The child's dict (the wall-clock limit counts from its start).
+
+        Raises:
+            ChildFailure: as :func:`run_limited`.
+        """
         try:
-            result = _collect(pid, r, lim, current, on_message)
+            return _collect(self.pid, self._r, self.limits, {"stage": self.stage}, on_message,
+                            deadline=self._deadline)
         except BaseException:
-            _kill(pid)
+            self.kill()
             raise
         finally:
-            os.close(r)
-    return result
+            self._reaped = True  # _collect waited for it, or kill did
+            self._close()
+
+    def kill(self) -> None:
+        """End the child now and reap it (safe to call twice, from any thread; the pipe stays
+        open for a :meth:`collect` under way: :meth:`close` it after)."""
+        if not self._reaped:
+            _kill(self.pid)
+
+    def close(self) -> None:
+        """Kill the child if it still runs and close its pipe (for a caller that does not
+        :meth:`collect`)."""
+        self.kill()
+        self._close()
+
+    def _close(self) -> None:
+        r, self._r = self._r, -1
+        if r >= 0:
+            try:
+                os.close(r)
+            except OSError:
+                pass
 
 
 def _die_with(parent: int) -> None:
@@ -106,6 +147,9 @@ def _child(fn: Callable[[Send], dict[str, Any]], w: int, r: int, lim: ParentLimi
             out = {"result": fn(send)}
         except MemoryError:
             out = {"failure": {"kind": "memory", "message": "ran out of memory"}}
+        except ChildFailure as exc:  # a child of this child failed: its failure is ours
+            out = {"failure": {"kind": exc.kind, "type": exc.exc_type, "message": str(exc),
+                               "oserror": exc.oserror, "procedura": exc.procedura}}
         except BaseException as exc:  # noqa: BLE001 - reported to the parent
             from .errors import ProceduraError
             out = {"failure": {"kind": "error", "type": type(exc).__name__, "message": str(exc),
@@ -135,8 +179,9 @@ def _write(fd: int, msg: dict[str, Any]) -> None:
 
 
 def _collect(pid: int, fd: int, lim: ParentLimits, current: dict[str, str],
-             on_message: Callable[[dict[str, Any]], None] | None) -> dict[str, Any]:
-    deadline = time.monotonic() + lim.wall_s
+             on_message: Callable[[dict[str, Any]], None] | None, *,
+             deadline: float | None = None) -> dict[str, Any]:
+    deadline = time.monotonic() + lim.wall_s if deadline is None else deadline
     buf = b""
     final: dict[str, Any] | None = None
     while True:
@@ -175,6 +220,8 @@ def _collect(pid: int, fd: int, lim: ParentLimits, current: dict[str, str],
         if f["kind"] == "memory":
             raise ChildFailure("memory", f"the {stage} stage ran out of memory (address-space "
                                          f"limit {mib} MiB, config.PARENT)", stage=stage)
+        if f["kind"] in ("timeout", "killed", "crash"):  # relayed from the child's own child
+            raise ChildFailure(f["kind"], str(f["message"]), stage=stage)
         err = ChildFailure("error", f["message"], stage=stage, exc_type=f.get("type"))
         err.oserror, err.procedura = bool(f.get("oserror")), bool(f.get("procedura"))
         raise err
@@ -196,4 +243,4 @@ def _kill(pid: int) -> None:
         pass
 
 
-__all__ = ["ChildFailure", "run_limited"]
+__all__ = ["ChildFailure", "Limited", "run_limited"]

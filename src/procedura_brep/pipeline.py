@@ -14,6 +14,7 @@ laid out once, by :func:`procedura_brep.run.report.run_report`.
 from __future__ import annotations
 
 import logging
+import os
 import threading
 import time
 from collections.abc import Callable
@@ -270,6 +271,9 @@ def _build_into(run: _Run, source: str, name: str, fmts: tuple[str, ...], *, gat
 
 
 _GATES_LINE = "running the gates"
+#: Export beside the gates (a second process, :mod:`procedura_brep.run.overlap`) where there
+#: is a second core; off, the export starts when the gates have passed.
+OVERLAP_EXPORT = (os.cpu_count() or 1) > 1
 
 
 def _export_line(model: CompiledModel, fmts: tuple[str, ...]) -> str:
@@ -284,22 +288,39 @@ def verify_and_export(model: CompiledModel, source: str, root: Path, fmts: tuple
     returns what the parent needs (JSON-safe): the sections of the report, the findings that
     fail the build, the files written, the timings and whether anything was exported.
 
-    A model that fails its gates is not exported (nor simulated) unless ``export_failed``."""
+    A model that fails its gates is not exported (nor simulated) unless ``export_failed``.
+    With the gates on and ``OVERLAP_EXPORT``, the export runs beside the gates in a child of
+    its own and is kept only when it is wanted (:mod:`procedura_brep.run.overlap`)."""
     timings: dict[str, float] = {}
     sections: dict[str, Any] = {}
     gate_errors: list[Finding] = []
     battery: list[Finding] = []
-    if gates:
-        verdict = steps.gate(model, source)
-        timings["gates_s"] = verdict.seconds
-        sections["gates"] = verdict.report
-        gate_errors = verdict.errors
-    exported = not failed(gate_errors) or export_failed
-    files: list[str] = []
-    if exported:
+    ahead = None
+    if gates and OVERLAP_EXPORT:
+        from .run.overlap import start_export
+        ahead = start_export(model, root, formats=fmts, step_schema=step_schema)
+        timings["tessellate_s"] = ahead.tessellate_s
+    try:
         if gates:
-            send({"stage": "export", "line": _export_line(model, fmts)})
-        bundle = steps.export(model, root, formats=fmts, step_schema=step_schema)  # type: ignore[arg-type]
+            verdict = steps.gate(model, source)
+            timings["gates_s"] = verdict.seconds
+            sections["gates"] = verdict.report
+            gate_errors = verdict.errors
+        exported = not failed(gate_errors) or export_failed
+        files: list[str] = []
+        if exported:
+            if gates:
+                send({"stage": "export", "line": _export_line(model, fmts)})
+            if ahead is not None:
+                t = time.perf_counter()
+                bundle = ahead.finish()
+                timings["export_wait_s"] = time.perf_counter() - t
+            else:
+                bundle = steps.export(model, root, formats=fmts, step_schema=step_schema)  # type: ignore[arg-type]
+    finally:
+        if ahead is not None:
+            ahead.discard()  # killed and removed unless finished
+    if exported:
         timings.update(bundle.timings)
         files = list(bundle.files)
         if simulate:
