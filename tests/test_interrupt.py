@@ -16,6 +16,7 @@ import sys
 import threading
 import time
 import uuid
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -50,10 +51,20 @@ def _marked_pids(mark: str) -> list[int]:
     return found
 
 
+def compiling_parts(pid: int) -> bool:
+    """Whether the CLI ``pid`` has a compile request in flight: the scratch folder it makes
+    for each request (``procedura-compile-<pid>-*``) exists."""
+    import glob
+    import tempfile
+    return bool(glob.glob(os.path.join(tempfile.gettempdir(), f"procedura-compile-{pid}-*")))
+
+
 def interrupt_build(program: Path, out: Path, *, when: str | None, delay_s: float = 0.0,
-                    extra: tuple[str, ...] = ()) -> tuple[int, float, str, list[int]]:
-    """Run a build, send SIGINT to its group once stderr shows ``when`` (or after ``delay_s``);
-    returns (exit code, seconds from signal to exit, stderr, pids left)."""
+                    extra: tuple[str, ...] = (),
+                    until: Callable[[int], bool] | None = None) -> tuple[int, float, str, list[int]]:
+    """Run a build, send SIGINT to its group once stderr shows ``when`` and ``until(pid)`` holds
+    (if given), then ``delay_s`` later; returns (exit code, seconds from signal to exit,
+    stderr, pids left)."""
     mark = uuid.uuid4().hex
     proc = subprocess.Popen([sys.executable, "-m", "procedura_brep.cli", "build", str(program),
                              "-o", str(out), *extra], stdout=subprocess.PIPE,
@@ -74,6 +85,10 @@ def interrupt_build(program: Path, out: Path, *, when: str | None, delay_s: floa
     try:
         if when is not None:
             assert seen.wait(120), f"never saw {when!r}: {''.join(lines)}"
+        if until is not None:
+            deadline = time.monotonic() + 120
+            while not until(proc.pid) and proc.poll() is None and time.monotonic() < deadline:
+                time.sleep(0.01)
         time.sleep(delay_s)
         assert proc.poll() is None, f"the build ended before the signal: {''.join(lines)}"
         t = time.monotonic()
@@ -93,15 +108,17 @@ def interrupt_build(program: Path, out: Path, *, when: str | None, delay_s: floa
     return code, dt, "".join(lines), left
 
 
-@pytest.mark.parametrize("when, delay_s, stage", [
-    ("compiling", 0.05, "compile"),          # the CLI imports OCP, trimesh, MuJoCo, USD
-    ("compiling", 3.0, "compile"),           # the worker compiles the rover's 29 parts
-    ("writing", 0.05, "export"),             # tessellation and the exporters (OCCT)
-    ("running the gates", 0.05, "gates"),
-])
-def test_sigint_stops_a_build_at_every_stage(tmp_path, when, delay_s, stage):
+@pytest.mark.parametrize("when, until, delay_s, stage", [
+    ("compiling", None, 0.05, "compile"),    # the CLI imports OCP, trimesh, MuJoCo, USD
+    # the worker compiles the rover's 29 parts (its children run: a fixed delay after the
+    # progress line landed in the gates once the compile took under that delay)
+    ("compiling", compiling_parts, 0.2, "compile"),
+    ("writing", None, 0.05, "export"),       # the exporters (OCCT), beside or after the gates
+    ("running the gates", None, 0.05, "gates"),
+], ids=["compile-imports", "compile-parts", "export", "gates"])
+def test_sigint_stops_a_build_at_every_stage(tmp_path, when, until, delay_s, stage):
     out = tmp_path / "run"
-    code, dt, err, left = interrupt_build(ROVER, out, when=when, delay_s=delay_s)
+    code, dt, err, left = interrupt_build(ROVER, out, when=when, delay_s=delay_s, until=until)
     assert code == 130, err
     assert dt < BOUND_S, f"took {dt:.1f} s to stop"
     assert left == [], f"processes left behind: {left}"
