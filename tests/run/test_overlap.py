@@ -59,12 +59,12 @@ def test_a_model_that_fails_its_gates_ships_nothing_the_export_wrote_ahead(tmp_p
 
     from procedura_brep.run import steps
     mark = tmp_path / "export-ran"
-    real_export, real_gate = overlap.export, steps.gate
+    real_formats, real_gate = overlap.Overlapped._formats, steps.gate
 
-    def export(model, folder, **kw):
-        bundle = real_export(model, folder, **kw)
-        mark.write_text(str(folder))
-        return bundle
+    def formats(self, send):
+        out = real_formats(self, send)
+        mark.write_text(str(self.folder))
+        return out
 
     def gate(*a, **kw):
         deadline = time.monotonic() + 60
@@ -72,7 +72,7 @@ def test_a_model_that_fails_its_gates_ships_nothing_the_export_wrote_ahead(tmp_p
             time.sleep(0.01)
         return real_gate(*a, **kw)
 
-    monkeypatch.setattr(overlap, "export", export)
+    monkeypatch.setattr(overlap.Overlapped, "_formats", formats)
     monkeypatch.setattr(steps, "gate", gate)
     monkeypatch.setattr(pipeline, "OVERLAP_EXPORT", True)
     out = tmp_path / "run"
@@ -126,3 +126,4 @@ def test_a_killed_export_child_is_a_finding_not_an_internal_error(tmp_path, work
     assert rep["findings"][-1]["code"] == "parent-killed", rep["findings"][-1]
     assert "the export stage was killed by SIGKILL" in rep["findings"][-1]["message"]
     assert sorted(_files(out)) == ["program.py", "report.json"]
+

@@ -168,32 +168,52 @@ def export(model: CompiledModel, root: Path, *, formats: tuple[str, ...] | None 
         ArticulationError: the mate graph is not a tree.
         OSError: ``root`` cannot be written.
     """
-    from ..export.bundle import parse_formats, write_bundle
-    from ..export.records import mates_json
+    from ..export.bundle import parse_formats
     fmts = parse_formats(formats)
     timings: dict[str, float] = {}
-    art = None  # built once: the exporters and then the battery take the same articulation
-    if {"usd", "urdf", "mjcf"} & set(fmts):
+    t = time.perf_counter()
+    written, art = export_formats(model, root, fmts, step_schema=step_schema, timings=timings)
+    timings["export_s"] = time.perf_counter() - t - timings.get("articulate_s", 0.0)
+    written["mates.json"] = export_mates(model, root, evidence=len(fmts) > 1 if evidence is None
+                                         else evidence, timings=timings)
+    return Bundle(root, written, timings, art)
+
+
+def export_formats(model: CompiledModel, root: Path, fmts: tuple[str, ...], *,
+                   step_schema: str = "AP214", art: Any = None,
+                   timings: dict[str, float] | None = None) -> tuple[dict[str, Path], Any]:
+    """Write the formats ``fmts`` (validated names) of ``model`` into ``root``; returns the files
+    written and the articulation they were written from (``art``, built here when a format
+    needs one and none is given). Adds ``articulate_s`` and ``export_<format>_s`` to
+    ``timings`` (summed over calls)."""
+    from ..export.bundle import write_bundle
+    times = timings if timings is not None else {}
+    if art is None and {"usd", "urdf", "mjcf"} & set(fmts):
         from ..articulation import articulate
         t = time.perf_counter()
-        art = articulate(model)
-        timings["articulate_s"] = time.perf_counter() - t
-    t = time.perf_counter()
+        art = articulate(model)  # built once: the exporters and the battery take the same one
+        times["articulate_s"] = times.get("articulate_s", 0.0) + time.perf_counter() - t
     per: dict[str, float] = {}
-    written = write_bundle(model, root, formats=fmts, timings=per, step_schema=step_schema,
-                           art=art)
-    timings.update({f"export_{k}_s": v for k, v in per.items()})
-    timings["export_s"] = time.perf_counter() - t
+    written = write_bundle(model, root, formats=fmts, timings=per,
+                           step_schema=step_schema, art=art)  # type: ignore[arg-type]
+    for k, v in per.items():
+        times[f"export_{k}_s"] = times.get(f"export_{k}_s", 0.0) + v
+    return written, art
+
+
+def export_mates(model: CompiledModel, root: Path, *, evidence: bool,
+                 timings: dict[str, float] | None = None) -> Path:
+    """Write ``root/mates.json`` (with the articulation evidence when ``evidence``; its time is
+    ``timings["evidence_s"]``); returns its path."""
+    from ..export.records import mates_json
     ev = None
-    if evidence is None:
-        evidence = len(fmts) > 1
     if evidence:
         t = time.perf_counter()
         from ..articulation import mates_evidence
         ev = mates_evidence(model)
-        timings["evidence_s"] = time.perf_counter() - t
-    written["mates.json"] = write_atomic(root / "mates.json", dump_json(mates_json(model, ev)))
-    return Bundle(root, written, timings, art)
+        if timings is not None:
+            timings["evidence_s"] = time.perf_counter() - t
+    return write_atomic(root / "mates.json", dump_json(mates_json(model, ev)))
 
 
 @dataclass
@@ -245,5 +265,5 @@ def dump_json(obj: Any) -> str:
     return json.dumps(obj, indent=2, sort_keys=False, ensure_ascii=False, default=json_default) + "\n"
 
 
-__all__ = ["BatteryVerdict", "Bundle", "GateVerdict", "compile_model", "dump_json", "export", "gate",
-           "simulate"]
+__all__ = ["BatteryVerdict", "Bundle", "GateVerdict", "compile_model", "dump_json", "export",
+           "export_formats", "export_mates", "gate", "simulate"]
