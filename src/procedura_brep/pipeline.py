@@ -312,9 +312,7 @@ def verify_and_export(model: CompiledModel, source: str, root: Path, fmts: tuple
             if gates:
                 send({"stage": "export", "line": _export_line(model, fmts)})
             if ahead is not None:
-                t = time.perf_counter()
                 bundle = ahead.finish()
-                timings["export_wait_s"] = time.perf_counter() - t
             else:
                 bundle = steps.export(model, root, formats=fmts, step_schema=step_schema)  # type: ignore[arg-type]
     finally:

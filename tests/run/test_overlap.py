@@ -127,3 +127,28 @@ def test_a_killed_export_child_is_a_finding_not_an_internal_error(tmp_path, work
     assert "the export stage was killed by SIGKILL" in rep["findings"][-1]["message"]
     assert sorted(_files(out)) == ["program.py", "report.json"]
 
+
+
+def test_the_export_child_adopts_the_gates_meshes_instead_of_meshing_again(tmp_path, worker,
+                                                                           monkeypatch):
+    """Every part is tessellated once, by the gates' process; the export child reads the
+    handed-over meshes (planted: without them it tessellates every part itself, and the
+    files are the same, so only the count tells)."""
+    from procedura_brep import kernel
+    from procedura_brep.program.model import clear_mesh_cache
+    log = tmp_path / "tessellated"
+    real = kernel.tessellate
+
+    def counted(shape, **kw):
+        with open(log, "a") as fh:
+            fh.write(f"{os.getpid()} {kw.get('name', '?')}\n")
+        return real(shape, **kw)
+
+    monkeypatch.setattr(kernel, "tessellate", counted)
+    monkeypatch.setattr(pipeline, "OVERLAP_EXPORT", True)
+    clear_mesh_cache()  # this test process's meshes would be inherited by both
+    res = build(LAMP, tmp_path / "run")
+    assert res.ok, res.reason
+    rows = [line.split() for line in log.read_text().splitlines()]
+    pids = {pid for pid, _ in rows}
+    assert len(pids) == 1 and sorted(name for _, name in rows) == ["arm", "base", "post"], rows
