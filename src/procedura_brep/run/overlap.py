@@ -59,13 +59,17 @@ class Overlapped:
         """Fork the child, then tessellate every part and hand the meshes over."""
         self._child = Limited(self._formats, stage="export")
         t = time.perf_counter()
-        meshes: dict[str, Any] = {}
-        for part in self.model.parts:
-            try:
-                meshes[part.digest] = part.mesh()
-            except ProceduraError:  # a part over the mesh cap: the gates report it themselves
-                pass
-        _write_meshes(self.folder / MESHES, meshes)
+        try:
+            meshes: dict[str, Any] = {}
+            for part in self.model.parts:
+                try:
+                    meshes[part.digest] = part.mesh()
+                except ProceduraError:  # a part over the mesh cap: the gates report it themselves
+                    pass
+            _write_meshes(self.folder / MESHES, meshes)
+        except BaseException:  # out of memory, a full disk, Ctrl-C: the child goes too
+            self.discard()
+            raise
         self.tessellate_s = time.perf_counter() - t
         return self
 
@@ -153,8 +157,9 @@ def _adopt_meshes(path: Path, *, poll_s: float = 0.002) -> None:
 def start_export(model: CompiledModel, root: Path, *, formats: tuple[str, ...],
                  step_schema: str) -> Overlapped:
     """Start the export of ``model``'s ``formats`` into ``root/FOLDER`` beside the caller's
-    gates; returns at once (see the module doc). ``mates.json`` carries the evidence when more
-    than one format is written, as in the serial export."""
+    gates; returns once the parts are tessellated and their meshes handed over (see the module
+    doc). ``mates.json`` carries the evidence when more than one format is written, as in the
+    serial export."""
     return Overlapped(model, root, formats, step_schema).start()
 
 
