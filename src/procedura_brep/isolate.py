@@ -180,8 +180,7 @@ def _write(fd: int, msg: dict[str, Any]) -> None:
 
 def _collect(pid: int, fd: int, lim: ParentLimits, current: dict[str, str],
              on_message: Callable[[dict[str, Any]], None] | None, *,
-             deadline: float | None = None) -> dict[str, Any]:
-    deadline = time.monotonic() + lim.wall_s if deadline is None else deadline
+             deadline: float) -> dict[str, Any]:
     buf = b""
     final: dict[str, Any] | None = None
     while True:

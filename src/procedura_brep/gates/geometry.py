@@ -108,7 +108,10 @@ _DIST: LRU = LRU()
 
 
 def clear_caches() -> None:
-    """Forget every cached tessellation, distance, common, piece grouping and mate measure."""
+    """Forget the gates' own caches: part geometries (built on the part meshes), distances,
+    commons, piece groupings and mate measures. The part meshes themselves are the model's,
+    shared with exports and renders, and stay: :func:`procedura_brep.program.model.clear_mesh_cache`
+    forgets them (a cold measurement needs both)."""
     from . import common, mate_gate, pieces
 
     _PARTS.clear()

@@ -35,11 +35,6 @@ def clear_mesh_cache() -> None:
     _SHAPES.clear()
 
 
-def cached_mesh(digest: str) -> Any:
-    """The cached mesh of the part geometry ``digest`` (:attr:`CompiledPart.digest`), or None."""
-    return _MESHES.get(digest)
-
-
 def adopt_mesh(digest: str, mesh: Any) -> None:
     """Cache ``mesh`` as the mesh of the part geometry ``digest``: one tessellated by another
     process of ours from the same geometry (:mod:`procedura_brep.run.overlap`)."""
