@@ -4,8 +4,12 @@ Every pair of parts is considered, mate partners or not. Pairs are prefiltered b
 (grown by ``TOL.mesh_linear_mm``, since a mesh box can be that much smaller than the solid's,
 and required to overlap by more than ``TOL.penetration_slack_mm`` on every axis, since a thinner
 overlap cannot hold a thicker common); then the exact common (:func:`.common.common`, shared
-with the mate gate and bounded by ``TOL.boolean_face_budget``) is split into solids, and each
-solid is judged:
+with the mate gate and bounded by ``TOL.boolean_pair_budget``, on crops when over it) is split
+into solids, and each solid is judged. **Contact is not interference**: parts that touch (a
+common thinner than ``TOL.penetration_slack_mm``, including none at all) pass. A pair whose
+common could not be computed within the bound is **not verified**: a ``not-verified`` warning
+that says what stopped it, listed under ``measured["not_verified"]``, never a pass of that pair
+and never a blocking error. Each solid is judged:
 
 * it reaches into the feature region of a mate between the two parts
   (:func:`~procedura_brep.gates.mate_gate.region`) and its depth in that mate's frame is within
@@ -33,7 +37,7 @@ from ..config import TOL
 from ..program.model import CompiledMate, CompiledModel, Finding
 from .common import Common, common
 from .geometry import box_pairs, part_geometry
-from .mate_gate import budget_finding, penetration_limit, region
+from .mate_gate import penetration_limit, region, unverified_finding
 from .policy import GateResult, result
 
 
@@ -42,14 +46,19 @@ class PairOverlap:
     """The judged overlap of two parts (``a`` before ``b`` in plan order).
 
     Attributes:
-        depth: the worst solid's depth, mm (the worst not-allowed one when any is not allowed).
-        volume: total common volume, mm^3 (None for a mesh estimate).
+        depth: the worst solid's depth, mm (the worst not-allowed one when any is not allowed;
+            0 when not verified).
+        volume: total common volume, mm^3 (None when not verified).
         limit: the depth allowed for that solid, mm.
         allowed: every solid is allowed.
         judged_by: ``"fit"`` (allowed by a mate's fit), ``"mate"`` (a static mate's own
             penetration, reported by the mate gate), ``"interference"`` (this gate's finding).
         mate: the mate whose region the worst solid reaches, if any.
+        exact: the common was computed (False: the pair is not verified, see ``reason``).
+        pairs: face pairs the boolean intersected (:func:`.common.face_pairs`).
+        reason: why the pair is not verified.
         lo, hi: the worst solid's box, world mm.
+        point: a point inside the worst solid (its node nearest the box centre), world mm.
     """
 
     a: str
@@ -61,16 +70,21 @@ class PairOverlap:
     judged_by: str
     mate: str | None = None
     exact: bool = True
-    face_product: int = 0
+    pairs: int = 0
+    reason: str = ""
     lo: list[float] = field(default_factory=list)
     hi: list[float] = field(default_factory=list)
+    point: list[float] = field(default_factory=list)
 
     def as_dict(self) -> dict[str, Any]:
-        return {"a": self.a, "b": self.b, "depth_mm": round(self.depth, 6),
-                "volume_mm3": None if self.volume is None else round(self.volume, 6),
-                "limit_mm": round(self.limit, 6), "allowed": self.allowed,
-                "judged_by": self.judged_by, "mate": self.mate, "exact": self.exact,
-                "bbox": [self.lo, self.hi]}
+        out = {"a": self.a, "b": self.b, "depth_mm": round(self.depth, 6),
+               "volume_mm3": None if self.volume is None else round(self.volume, 6),
+               "limit_mm": round(self.limit, 6), "allowed": self.allowed,
+               "judged_by": self.judged_by, "mate": self.mate, "exact": self.exact,
+               "bbox": [self.lo, self.hi], "point": self.point}
+        if not self.exact:
+            out["reason"] = self.reason
+        return out
 
 
 def candidate_pairs(model: CompiledModel) -> list[tuple[int, int]]:
@@ -88,14 +102,8 @@ def _judge(a: str, b: str, com: Common, mates: list[CompiledMate],
            frames: list[np.ndarray]) -> PairOverlap | None:
     slack = TOL.penetration_slack_mm
     if not com.exact:
-        lim = max([penetration_limit(m.fit or {}) for m in mates], default=slack)
-        d = com.estimate_depth
-        if d <= slack and not mates:
-            return None
-        static = any(m.kind == "static" for m in mates)
-        return PairOverlap(a, b, d, None, lim, d <= lim,
-                           "fit" if d <= lim else ("mate" if static else "interference"),
-                           mates[0].name if mates else None, False, com.face_product)
+        return PairOverlap(a, b, 0.0, None, slack, True, "unverified",
+                           mates[0].name if mates else None, False, com.pairs, com.reason)
     rows = []
     for s in com.solids:
         verdict = None
@@ -123,8 +131,9 @@ def _judge(a: str, b: str, com: Common, mates: list[CompiledMate],
     if any(r[0][3] == "interference" for r in bad):
         (d, lim, _, how, mname), s = max((r for r in bad if r[0][3] == "interference"),
                                          key=lambda r: r[0][0])
-    return PairOverlap(a, b, d, com.volume, lim, not bad, how, mname, True, com.face_product,
-                       np.round(s.lo, 4).tolist(), np.round(s.hi, 4).tolist())
+    return PairOverlap(a, b, d, com.volume, lim, not bad, how, mname, True, com.pairs, "",
+                       np.round(s.lo, 4).tolist(), np.round(s.hi, 4).tolist(),
+                       np.round(s.inner_point(), 4).tolist())
 
 
 def scan(model: CompiledModel) -> list[PairOverlap]:
@@ -150,13 +159,14 @@ def _fmt(v: list[float]) -> str:
 
 
 def interference_findings(model: CompiledModel, rows: list[PairOverlap]) -> list[Finding]:
-    """``interference`` errors for the rows this gate judges, ``boolean-budget`` warnings."""
+    """``interference`` errors for the rows this gate judges, ``not-verified`` warnings for the
+    pairs it could not decide (a static mate's pair is the mate gate's to report)."""
     out = []
     lines = {p.name: (p.lines[0] or None) for p in model.parts}
     static = {frozenset((m.child, m.parent)) for m in model.mates if m.kind == "static"}
     for r in rows:
         if not r.exact and frozenset((r.a, r.b)) not in static:
-            out.append(budget_finding(r.b, r.a, r.face_product, line=lines.get(r.b)))
+            out.append(unverified_finding(r.b, r.a, r.reason, line=lines.get(r.b)))
         if r.allowed or r.judged_by != "interference":
             continue
         if r.mate is None:
@@ -166,7 +176,7 @@ def interference_findings(model: CompiledModel, rows: list[PairOverlap]) -> list
         else:
             why = f"beyond what the fit of mate {r.mate} allows"
         vol = "" if r.volume is None else f", volume {r.volume:.3g} mm^3"
-        box = f" at bbox ({_fmt(r.lo)})..({_fmt(r.hi)}) mm" if r.lo else " (mesh estimate)"
+        box = f" at ({_fmt(r.point)}) mm, bbox ({_fmt(r.lo)})..({_fmt(r.hi)}) mm"
         out.append(Finding(
             "interference",
             f"{r.b} and {r.a} interpenetrate: depth {r.depth:.3g} mm{vol}{box} > {r.limit:.3g} mm "
@@ -176,12 +186,14 @@ def interference_findings(model: CompiledModel, rows: list[PairOverlap]) -> list
 
 
 def interference_gate(model: CompiledModel) -> tuple[list[Finding], GateResult]:
-    """Run the interference gate; ``measured`` has ``pairs`` (every overlapping pair, judged)
-    and ``max_depth_mm`` (worst pair this gate reports, 0 when none)."""
+    """Run the interference gate; ``measured`` has ``pairs`` (every overlapping pair, judged),
+    ``max_depth_mm`` (worst pair this gate reports, 0 when none) and ``not_verified`` (the
+    pairs whose exact common was not computed, with the reason)."""
     rows = scan(model)
     findings = interference_findings(model, rows)
     worst = max((r.depth for r in rows if not r.allowed and r.judged_by == "interference"),
                 default=0.0)
     return findings, result("interference", findings, {
-        "pairs": [r.as_dict() for r in rows], "max_depth_mm": round(worst, 6),
-        "limit_mm": TOL.penetration_slack_mm})
+        "pairs": [r.as_dict() for r in rows if r.exact], "max_depth_mm": round(worst, 6),
+        "limit_mm": TOL.penetration_slack_mm,
+        "not_verified": [{"a": r.a, "b": r.b, "reason": r.reason} for r in rows if not r.exact]})

@@ -22,7 +22,9 @@ seat keeps its walls inside the socket, and must still fail. A hovering part mea
 the radial wall of a ring about the mate axis) of the solids of the exact B-rep common
 ``child & parent`` that reach into the mate's feature region (:func:`region`); solids elsewhere
 are the interference gate's. A fit's own interference (press, snap, tight location fits) is
-allowed through ``delta_max(fit)``. The boolean is bounded by ``TOL.boolean_face_budget``.
+allowed through ``delta_max(fit)``. The boolean is bounded by ``TOL.boolean_pair_budget`` (on
+crops over it); a mate whose common is still over it has its penetration **not verified** (a
+warning, not a pass of the penetration and not a blocking error).
 
 When a mate both hovers and gouges, its frames are usually flipped: the finding says on which
 side of the mate plane each part's body lies (world directions of each frame's +Z) and which
@@ -68,7 +70,7 @@ class MateMeasure:
     penetration_mm: float
     penetration_limit_mm: float
     exact: bool = True
-    face_product: int = 0
+    reason: str = ""
 
     @property
     def seated(self) -> bool:
@@ -76,14 +78,16 @@ class MateMeasure:
 
     @property
     def clean(self) -> bool:
-        return self.penetration_mm <= self.penetration_limit_mm
+        """No penetration beyond the fit (True when not verified: that is reported apart)."""
+        return not self.exact or self.penetration_mm <= self.penetration_limit_mm
 
     def as_dict(self) -> dict[str, Any]:
         return {"area_mm2": round(self.area_mm2, 6), "area_limit_mm2": round(self.area_limit_mm2, 6),
                 "penetration_mm": round(self.penetration_mm, 6),
                 "penetration_limit_mm": round(self.penetration_limit_mm, 6),
                 "seated": self.seated, "clean": self.clean,
-                "passed": self.seated and self.clean, "exact": self.exact}
+                "passed": self.seated and self.clean, "exact": self.exact,
+                **({} if self.exact else {"not_verified": self.reason})}
 
 
 def penetration_limit(fit: dict[str, Any]) -> float:
@@ -268,13 +272,10 @@ def measure(model: CompiledModel, mate: CompiledMate) -> MateMeasure:
                              radius=bearing_radius(mate), mask=body_faces(child, cg))
     com = common(cg, child.shape(), pg, parent.shape())
     rad, half = region(mate)
-    if com.exact:
-        depth = max((s.depth(mate.world_frame) for s in com.solids
-                     if s.touches(mate.world_frame, rad, half)), default=0.0)
-    else:
-        depth = com.estimate_depth
+    depth = max((s.depth(mate.world_frame) for s in com.solids
+                 if s.touches(mate.world_frame, rad, half)), default=0.0)
     vals = (area, area_limit(mate.nominal), depth, penetration_limit(mate.fit or {}),
-            com.exact, com.face_product)
+            com.exact, com.reason)
     _MEASURED.put(key, vals)
     return MateMeasure(mate.name, *vals)
 
@@ -326,33 +327,31 @@ def mate_findings(mate: CompiledMate, m: MateMeasure, hint: str = "") -> list[Fi
             part=mate.child, mate=mate.name, line=mate.line, value=m.area_mm2,
             limit=m.area_limit_mm2))
     if not m.clean:
-        est = "" if m.exact else " (a mesh estimate: the exact boolean was not computed)"
         advice = hint if both and hint else (
             f"move the geometry out of {mate.parent} or fix frame {mate.child_frame}")
         out.append(Finding(
             "mate-penetration",
             f"{mate.child} gouges into {mate.parent}: penetration {m.penetration_mm:.3g} mm > "
-            f"{m.penetration_limit_mm:.3g} mm allowed by fit {mate.fit.get('fit', '?')}{est}; "
+            f"{m.penetration_limit_mm:.3g} mm allowed by fit {mate.fit.get('fit', '?')}; "
             f"{advice}",
             part=mate.child, mate=mate.name, line=mate.line, value=m.penetration_mm,
             limit=m.penetration_limit_mm))
     if not m.exact:
-        out.append(budget_finding(mate.child, mate.parent, m.face_product, mate=mate.name,
-                                  line=mate.line))
+        out.append(unverified_finding(mate.child, mate.parent, m.reason, mate=mate.name,
+                                      line=mate.line))
     return out
 
 
-def budget_finding(a: str, b: str, product: int, *, mate: str | None = None,
-                   line: int | None = None) -> Finding:
-    """The warning that the exact common of ``a`` and ``b`` was skipped for its face budget."""
-    why = (f"face product {product} > budget {TOL.boolean_face_budget} (config "
-           f"TOL.boolean_face_budget)" if product >= 0 else "OCCT failed on it (check both solids)")
+def unverified_finding(a: str, b: str, reason: str, *, mate: str | None = None,
+                       line: int | None = None) -> Finding:
+    """The warning that the overlap of ``a`` and ``b`` was not verified, and what stopped it."""
+    what = f"the penetration of mate {mate}" if mate else f"the interference of {a} and {b}"
     return Finding(
-        "boolean-budget",
-        f"the exact common of {a} and {b} was not computed: {why}; their overlap is a mesh "
-        f"estimate. Fewer faces per part (fuse plates, fewer holes) make it exact",
-        part=a, mate=mate, line=line, value=float(product),
-        limit=float(TOL.boolean_face_budget), severity="warning")
+        "not-verified",
+        f"{what} was not verified: the exact common of {a} and {b} was not computed ({reason}). "
+        f"Neither pass nor fail: fewer faces where the two parts meet (fuse plates, fewer "
+        f"holes or teeth there) let it be decided",
+        part=a, mate=mate, line=line, severity="warning")
 
 
 def mate_gate(model: CompiledModel, *, mates: list[str] | None = None) -> tuple[list[Finding], GateResult]:
