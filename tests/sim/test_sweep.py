@@ -205,7 +205,7 @@ def test_a_sweep_that_spends_its_boolean_budget_stops_and_says_where(fins, monke
     cut = SweepScene(model, art).sweep(art.joint("blade_pivot"))
     assert cut.booleans == full.booleans - 1
     assert cut.stopped.startswith("'blade' against '") and " at " in cut.stopped, cut.stopped
-    assert cut.as_dict()["stopped_at_budget"] == cut.stopped
+    assert cut.as_dict()["not_verified"] == cut.stopped
     monkeypatch.setattr(sweep, "TOL", dataclasses.replace(TOL, sweep_max_booleans=full.booleans))
     same = SweepScene(model, art).sweep(art.joint("blade_pivot"))
     assert not same.stopped and same.depth == full.depth and same.pair == full.pair

@@ -15,6 +15,18 @@ pin, a round hub: they map onto themselves). A point changes from outside to ins
 solid only when a boundary point passes over it, so only the other faces can start or deepen an
 interference (:func:`invariant_under_rotation`).
 
+For a slide along a unit direction ``u`` (a prismatic joint, the slide of a cylindrical one) the
+moved part moves ``+u`` as the joint value rises, and the sweep runs from the lower limit up.
+Overlap grows only where a *leading* face of the moved part (outward normal with a positive
+component along ``u``) passes over the fixed part's interior, and such a face can first enter
+the fixed part only through an *opposing* face of it (outward normal against ``u``): faces
+whose normals are all perpendicular to ``u`` (planes containing ``u``, cylinders along ``u``)
+slide within themselves. So from a pose where the two parts do not overlap, the moved part's
+cover keeps only faces that may lead and the fixed part's only faces that may oppose
+(:func:`faces_along`): a bearing block touching its rail on three faces along the motion has
+no cells there at all, while its front face and a stop block's back face do
+(:func:`side_of_motion`).
+
 Two posed solids whose covers do not meet have disjoint surfaces: they are apart, or one lies
 wholly inside the other (which a sweep that moves no point by more than ``TOL.sweep_step_mm`` a
 step can only reach through a pose where the surfaces met).
@@ -141,6 +153,42 @@ def invariant_under_rotation(face, point: np.ndarray, axis: np.ndarray, o) -> bo
     return True
 
 
+def side_of_motion(face, u: np.ndarray, o) -> tuple[bool, bool]:
+    """(may lead, may oppose): whether ``face``'s outward normal may have a positive, or a
+    negative, component along the unit direction ``u``. A plane answers exactly; a cylinder
+    (or a surface of linear extrusion) along ``u`` neither leads nor opposes; any other
+    surface is assumed to do both (conservative)."""
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.GeomAbs import GeomAbs_SurfaceType as S
+    from OCP.TopAbs import TopAbs_REVERSED
+    surf = BRepAdaptor_Surface(face)
+    kind = surf.GetType()
+    if kind == S.GeomAbs_Plane:
+        n = np.array(_dir(surf.Plane().Axis().Direction()))
+        if face.Orientation() == TopAbs_REVERSED:
+            n = -n
+        c = float(n @ u)
+        return c > PARALLEL_EPS, c < -PARALLEL_EPS
+    if kind == S.GeomAbs_Cylinder:
+        along = abs(abs(float(np.array(_dir(surf.Cylinder().Axis().Direction())) @ u)) - 1.0)
+        return (False, False) if along <= PARALLEL_EPS else (True, True)
+    if kind == S.GeomAbs_SurfaceOfExtrusion:
+        along = abs(abs(float(np.array(_dir(surf.Direction())) @ u)) - 1.0)
+        return (False, False) if along <= PARALLEL_EPS else (True, True)
+    return True, True
+
+
+def faces_along(u: np.ndarray, sign: int):
+    """A face filter for :func:`cover`: faces that may lead (``sign`` +1) or oppose (-1) a
+    motion along ``u`` (:func:`side_of_motion`)."""
+    u = np.asarray(u, float) / float(np.linalg.norm(u))
+
+    def keep(face, o) -> bool:
+        lead, oppose = side_of_motion(face, u, o)
+        return lead if sign > 0 else oppose
+    return keep
+
+
 def _dir(d) -> tuple[float, float, float]:
     return (d.X(), d.Y(), d.Z())
 
@@ -161,9 +209,11 @@ def cell_side(tris: np.ndarray, cell: float = TOL.sweep_cell_mm, max_cells: int 
 
 
 def cover(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
-          cell: float = TOL.sweep_cell_mm, max_cells: int | None = None) -> Cover:
+          keep=None, cell: float = TOL.sweep_cell_mm, max_cells: int | None = None) -> Cover:
     """The sphere cover of the located, meshed ``shape``; with ``axis`` = (point, unit
-    direction), the faces invariant under rotation about it are left out. ``cell`` is the
+    direction), the faces invariant under rotation about it are left out; with ``keep`` (a
+    ``keep(face, ocp) -> bool`` filter such as :func:`faces_along`), only the faces it keeps
+    are covered. ``cell`` is the
     finest cell side; :func:`cell_side` widens it to keep about ``max_cells`` (default
     ``TOL.sweep_max_cells``) cells."""
     from ..kernel import _ocp, mesh_deflection
@@ -178,6 +228,8 @@ def cover(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
         exp.Next()
         if axis is not None and invariant_under_rotation(face, axis[0], axis[1], o):
             continue
+        if keep is not None and not keep(face, o):
+            continue
         tris.append(_triangles(face, o))
     tris_all = np.vstack(tris) if tris else np.zeros((0, 3, 3))
     cell = cell_side(tris_all, cell, max_cells)
@@ -188,4 +240,5 @@ def cover(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
     return Cover(np.asarray(centres, float), float(radius))
 
 
-__all__ = ["Cover", "cell_side", "cover", "invariant_under_rotation"]
+__all__ = ["Cover", "cell_side", "cover", "faces_along", "invariant_under_rotation",
+           "side_of_motion"]

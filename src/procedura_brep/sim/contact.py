@@ -11,6 +11,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from .. import kernel
 from ..articulation.evidence import boxes_touch
 from ..articulation.tree import Articulation
@@ -22,12 +24,14 @@ BOX_MARGIN_MM = 0.01
 
 @dataclass(frozen=True)
 class Overlap:
-    """Interference between two parts: volume mm^3 and thickness mm."""
+    """Interference between two parts: volume mm^3, thickness mm and, when they overlap, a
+    point of the common (world mm: its vertex nearest its box centre)."""
 
     a: str
     b: str
     volume: float
     depth: float
+    point: np.ndarray | None = None
 
 
 def overlap(a_name: str, a_shape, b_name: str, b_shape) -> Overlap:
@@ -49,7 +53,28 @@ def exact_overlap(a_name: str, a_shape, b_name: str, b_shape) -> Overlap:
     if vol <= 0:
         return Overlap(a_name, b_name, 0.0, 0.0)
     area = kernel.area(common)
-    return Overlap(a_name, b_name, vol, 2.0 * vol / area if area > 0 else 0.0)
+    return Overlap(a_name, b_name, vol, 2.0 * vol / area if area > 0 else 0.0, _point(common))
+
+
+def _point(shape) -> np.ndarray | None:
+    """The vertex of ``shape`` nearest the centre of its box (world mm), or None."""
+    from OCP.BRep import BRep_Tool
+    from OCP.TopAbs import TopAbs_VERTEX
+    from OCP.TopExp import TopExp_Explorer
+    from OCP.TopoDS import TopoDS
+
+    pts = []
+    exp = TopExp_Explorer(shape, TopAbs_VERTEX)
+    while exp.More() and len(pts) < 10000:
+        p = BRep_Tool.Pnt_s(TopoDS.Vertex(exp.Current()))
+        pts.append((p.X(), p.Y(), p.Z()))
+        exp.Next()
+    if not pts:
+        return None
+    arr = np.asarray(pts, float)
+    lo, hi = kernel.bbox(shape, optimal=False)
+    c = (np.asarray(lo) + np.asarray(hi)) / 2.0
+    return arr[int(np.argmin(np.linalg.norm(arr - c, axis=1)))]
 
 
 def adjacent_links(art: Articulation) -> set[frozenset[str]]:

@@ -29,7 +29,16 @@ Cost is kept down by prefilters, all conservative for the thickness measure:
   count, and they alone set the sample spacing;
 * per pose, the surface-cell covers must meet and the parts' oriented local bounding boxes
   intersect (separating-axis test) before the exact boolean runs, on both parts cut once per
-  pair to the region an interference along the sweep can lie in.
+  pair to the region an interference along the sweep can lie in;
+* **sliding contact** (a bearing block on its rail, a carriage on its ways, a piston in its bore,
+  a tube in its sleeve): for a slide, a pair that does not overlap at the range's start is swept
+  with the moved part's *leading* faces against the fixed part's *opposing* faces only
+  (:func:`.cells.faces_along`: faces parallel to the motion slide within themselves and cannot
+  start an overlap), so faces that touch along the motion cost nothing, whatever their length,
+  while a stop in the path is found at the pose where the moved part meets it.
+
+A sweep that still spends ``TOL.sweep_max_booleans`` stops and is **not verified** (it names
+the pair and the pose it reached), never a pass and never a failure of parts that merely touch.
 """
 
 from __future__ import annotations
@@ -47,7 +56,7 @@ from ..config import TOL
 from ..mates.kinds import CONTINUOUS, PRISMATIC, REVOLUTE, Motion
 from ..mates.placement import motion_delta, rigid_inverse, rot_x, rot_z, trans
 from ..program.model import CompiledModel
-from .cells import Cover, cover
+from .cells import Cover, cover, faces_along
 from .contact import Overlap, exact_overlap
 
 log = logging.getLogger(__name__)
@@ -94,15 +103,26 @@ class SweepHit:
     step_mm: float = 0.0
     skipped_rest: list[tuple[str, str]] = field(default_factory=list)
     #: Where the sweep stopped because it spent ``TOL.sweep_max_booleans`` ("" if it did not):
-    #: "<moved> against <fixed> at <pose>". A stopped sweep is unfinished: B2 fails on it.
+    #: "<moved> against <fixed> at <pose>". A stopped sweep is unfinished: the poses after it
+    #: are **not verified** (B2 says so; it neither passes nor fails them).
     stopped: str = ""
+    #: The first pose (label) at which the worst pair's new interference exceeded
+    #: ``TOL.sim_penetration_mm``: where the moved part meets the fixed one ("" if none).
+    first_at: str = ""
+    #: Pairs swept on their leading and opposing faces only (sliding contact, see the module).
+    sliding: list[tuple[str, str]] = field(default_factory=list)
+    #: World point (mm) inside the worst common, at the pose ``at``.
+    point: list[float] = field(default_factory=list)
 
     def as_dict(self) -> dict:
-        return {"new_penetration_mm": self.depth, "pair": list(self.pair) if self.pair else None,
-                "at": self.at, "samples": self.samples, "booleans": self.booleans,
+        return {"new_penetration_mm": self.depth, "volume_mm3": self.volume,
+                "pair": list(self.pair) if self.pair else None, "at": self.at,
+                "first_at": self.first_at or None, "point_mm": self.point or None,
+                "samples": self.samples, "booleans": self.booleans,
                 "max_step_mm": self.step_mm,
                 "rest_interfering_pairs": [list(p) for p in self.skipped_rest],
-                "stopped_at_budget": self.stopped or None}
+                "sliding_pairs": [list(p) for p in self.sliding],
+                "not_verified": self.stopped or None}
 
 
 class _BudgetSpent(Exception):
@@ -211,16 +231,24 @@ class SweepScene:
             raise _BudgetSpent(where())
         self.booleans += 1
 
-    def cover(self, name: str, joint: Joint | None = None) -> tuple[Cover, cKDTree | None]:
+    def cover(self, name: str, joint: Joint | None = None,
+              side: int = 0) -> tuple[Cover, cKDTree | None]:
         """The part's surface sphere cover at rest (world mm) and a KD-tree of its centres;
         with a revolute or continuous ``joint``, without the faces its rotation leaves in
-        place (:mod:`.cells`)."""
+        place; with a sliding ``joint`` and ``side`` +1 (-1), only the faces that may lead
+        (oppose) its motion (:mod:`.cells`)."""
         axis = None
+        keep = None
         if joint is not None and joint.kind.turns:
             axis = (joint.frame[:3, 3].copy(), joint.axis)
-        key = (name, b"" if axis is None else np.round(np.concatenate(axis), 9).tobytes())
+        tag = b""
+        if joint is not None and side and joint.kind.slides:
+            u = joint.frame[:3, 2]
+            keep = faces_along(u, side)
+            tag = np.round(u * side, 9).tobytes()
+        key = (name, b"" if axis is None else np.round(np.concatenate(axis), 9).tobytes(), tag)
         if key not in self._cover:
-            c = cover(self.model.part(name).shape(), axis=axis)
+            c = cover(self.model.part(name).shape(), axis=axis, keep=keep)
             self._cover[key] = (c, cKDTree(c.centres) if len(c.centres) else None)
         return self._cover[key]
 
@@ -320,11 +348,35 @@ class SweepScene:
                 keep.append((a, b))
         return keep, at_rest
 
-    def orbit_cells(self, joint: Joint, a: str, b: str) -> tuple[np.ndarray, float]:
+    def _covers(self, joint: Joint, a: str, b: str, side: int) -> tuple[tuple[Cover, cKDTree | None],
+                                                                         tuple[Cover, cKDTree | None]]:
+        """The covers a pair is swept with: all of ``b``, ``a`` without its invariant faces; with
+        ``side`` 1 (a slide from a clear start), ``a``'s leading and ``b``'s opposing faces."""
+        if side:
+            return self.cover(a, joint, side), self.cover(b, joint, -side)
+        return self.cover(a, joint), self.cover(b)
+
+    def slide_side(self, joint: Joint, a: str, b: str) -> int:
+        """1 when a sliding ``joint``'s pair is swept on leading and opposing faces only: the
+        parts do not overlap at the range's lower end (exactly: no common thicker than
+        ``TOL.sweep_rest_interference_mm``), so an overlap can only start through them; else 0."""
+        if not joint.kind.slides or joint.lower is None:
+            return 0
+        q = float(joint.lower)
+        m = motion(joint, q)
+        if np.allclose(m, np.eye(4), atol=1e-12):
+            depth = self.rest(a, b).depth
+        elif _obb_overlap(self.obb(a, m), self.obb(b, np.eye(4)), TOL.sweep_box_slack_mm):
+            depth = self._overlap(a, m, b, label(joint, q)).depth
+        else:
+            depth = 0.0
+        return 1 if depth <= TOL.sweep_rest_interference_mm else 0
+
+    def orbit_cells(self, joint: Joint, a: str, b: str, side: int = 0) -> tuple[np.ndarray, float]:
         """(centres of ``a``'s surface cells whose orbit under the joint passes near ``b``'s
         cells, the largest distance from the axis of any point in them, mm; 0 for a prismatic
-        joint, whose points all move alike)."""
-        (ca, _), (cb, _) = self.cover(a, joint), self.cover(b)
+        joint, whose points all move alike); ``side`` as :meth:`slide_side`."""
+        (ca, _), (cb, _) = self._covers(joint, a, b, side)
         if not len(ca.centres) or not len(cb.centres):
             return ca.centres[:0], 0.0
         inv = rigid_inverse(joint.frame)
@@ -356,10 +408,13 @@ class SweepScene:
         try:
             todo, hit.skipped_rest = self.pairs(joint)
             for a, b in todo:
-                cells, radius = self.orbit_cells(joint, a, b)
+                side = self.slide_side(joint, a, b)
+                if side:
+                    hit.sliding.append((a, b))
+                cells, radius = self.orbit_cells(joint, a, b, side)
                 if not len(cells):
                     continue
-                n = self._sweep_pair(joint, a, b, cells, extra, hit)
+                n = self._sweep_pair(joint, a, b, cells, extra, hit, side)
                 hit.samples = max(hit.samples, n)
                 hit.step_mm = TOL.sweep_step_mm
         except _BudgetSpent as spent:
@@ -370,15 +425,16 @@ class SweepScene:
         return hit
 
     def _sweep_pair(self, joint: Joint, a: str, b: str, cells: np.ndarray,
-                    extra: tuple[float, ...], hit: SweepHit) -> int:
+                    extra: tuple[float, ...], hit: SweepHit, side: int = 0) -> int:
         """Conservative advancement along the range: at each pose every cell's gap to the fixed
         part's cover bounds how far its points may move before they can touch, so the next pose
         is the nearest at which some cell has moved its gap plus ``TOL.sweep_step_mm``, and never
         closer than ``sweep_step_mm`` at the largest lever arm. No point of a cell within reach of
         the fixed part moves more than ``sweep_step_mm`` between two poses. Returns the number of
         poses; the deepest new interference is recorded in ``hit`` as it is found, so a sweep
-        stopped at its budget keeps it."""
-        (ca, _), (cb, tb) = self.cover(a, joint), self.cover(b)
+        stopped at its budget keeps it. With ``side`` (:meth:`slide_side`) the cells are the
+        leading and opposing faces' only."""
+        (ca, _), (cb, tb) = self._covers(joint, a, b, side)
         inv = rigid_inverse(joint.frame)
         local = cells @ inv[:3, :3].T + inv[:3, 3]
         if joint.kind.slides:  # mm of travel per metre of joint value
@@ -407,12 +463,19 @@ class SweepScene:
             if (gap <= 0).any() and _obb_overlap(self.obb(a, m), box_b, TOL.sweep_box_slack_mm):
                 if crops is None:
                     crops = self._crops(joint, a, b, local, rest,
-                                        (min([lo, *outside]), max([hi, *outside])))
+                                        (min([lo, *outside]), max([hi, *outside])), ca.radius, side)
                 self._spend(lambda: f"{a!r} against {b!r} at {label(joint, q)}")
                 o = exact_overlap(a, kernel.located(crops[0], m), b, crops[1])
-                if o.depth - rest > hit.depth:
-                    hit.depth, hit.volume = o.depth - rest, o.volume
+                new = o.depth - rest
+                if new > TOL.sim_penetration_mm and (hit.pair is None or hit.pair == (a, b)) \
+                        and not hit.first_at:
+                    hit.first_at = label(joint, q)
+                if new > hit.depth:
+                    if hit.pair != (a, b):
+                        hit.first_at = label(joint, q) if new > TOL.sim_penetration_mm else ""
+                    hit.depth, hit.volume = new, o.volume
                     hit.pair, hit.at, hit.value = (a, b), label(joint, q), q
+                    hit.point = [round(float(x), 4) for x in o.point] if o.point is not None else []
             return gap
 
         for q in outside:  # MuJoCo overshoots beyond the commanded range: one pose each
@@ -430,22 +493,29 @@ class SweepScene:
         return poses
 
     def _crops(self, joint: Joint, a: str, b: str, local: np.ndarray, rest: float,
-               span: tuple[float, float]) -> tuple[object, object]:
+               span: tuple[float, float], radius: float, side: int = 0) -> tuple[object, object]:
         """(``a`` at rest, ``b``) both cut to the region any interference along the sweep lies
         in. For a pair clear at rest every boundary point of a common solid is a moved surface
         point of ``a`` from the relevant cells (``local``, in the joint frame) or a point of
         ``b`` on the orbit of one, and the common lies in the convex hull of its boundary: so it
         lies in the solid cylinder about a revolute axis holding those cells (a box stretched by
         the travel along a prismatic axis), grown by a cell radius and a step. A pair that
-        interferes at rest is not cut. ``span`` is the joint values checked (m or rad)."""
+        interferes at rest is not cut. ``span`` is the joint values checked (m or rad);
+        ``radius`` the cells' radius. With ``side`` (leading and opposing faces only) the cells
+        still cover the cross-section both parts share (a solid's faces that oppose a direction
+        project onto its whole cross-section), but not the moved part's length along the axis:
+        the region then spans the part's whole extent along it."""
         pa, pb = self.model.part(a), self.model.part(b)
         if rest > 0.0:
             return pa.shape(), pb.shape()
         from OCP.BRepAlgoAPI import BRepAlgoAPI_Common
         from OCP.BRepPrimAPI import BRepPrimAPI_MakeBox, BRepPrimAPI_MakeCylinder
         from OCP.gp import gp_Pnt
-        grow = self.cover(a, joint)[0].radius + TOL.sweep_step_mm + TOL.sweep_box_slack_mm
+        grow = radius + TOL.sweep_step_mm + TOL.sweep_box_slack_mm
         zlo, zhi = float(local[:, 2].min()) - grow, float(local[:, 2].max()) + grow
+        if side:
+            along = self._corners_in(a, rigid_inverse(joint.frame))[:, 2]
+            zlo, zhi = min(zlo, float(along.min()) - grow), max(zhi, float(along.max()) + grow)
         if joint.kind.slides:  # stretched by the travel (``span``, m)
             zlo += 1000.0 * min(0.0, span[0])
             zhi += 1000.0 * max(0.0, span[1])

@@ -1,0 +1,83 @@
+"""B2 on sliding contact (issue 23.2): bearing blocks that touch their rails along the whole
+travel cost the exact sweep nothing, while a stop block in their path is found, named, and
+placed at the pose where the moved part meets it."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from procedura_brep.articulation import articulate
+from procedura_brep.config import TOL
+from procedura_brep.sim.cells import side_of_motion
+from procedura_brep.sim.sweep import SweepScene
+from procedura_brep.testing.models import compiled
+
+from .slide import STOP_MEETS_MM, program
+
+
+@pytest.fixture(scope="module")
+def axes():
+    return {stop: compiled(program(stop), name=f"slide_{stop}") for stop in (False, True)}
+
+
+def _sweep(model):
+    art = articulate(model)
+    return SweepScene(model, art).sweep(art.joint("carriage_slide"))
+
+
+def test_blocks_touching_their_rails_over_760_mm_pass_with_few_booleans(axes):
+    hit = _sweep(axes[False])
+    assert not hit.stopped and hit.pair is None and hit.depth == 0.0
+    # every block touches its rail on three faces at every pose, yet the sweep needs no more
+    # exact booleans than pairs (the old sweep spent its 1500 on the first pair and failed)
+    assert {("block_lf", "rail_l"), ("block_rb", "rail_r")} <= set(hit.sliding)
+    assert hit.booleans <= 20, hit.booleans
+
+
+def test_a_stop_block_in_the_path_is_named_with_the_pose_where_it_meets(axes):
+    hit = _sweep(axes[True])
+    assert not hit.stopped
+    assert hit.pair == ("block_lf", "stop") and hit.depth > TOL.sim_penetration_mm
+    first = float(hit.first_at.split()[0])
+    assert first == pytest.approx(STOP_MEETS_MM, abs=TOL.sweep_step_mm + 0.5)
+    assert hit.volume > 0 and len(hit.point) == 3
+    # the point lies in the stop (world: on the left rail's top, near x = 100)
+    assert hit.point[1] == pytest.approx(-60.0, abs=10.0) and 90.0 <= hit.point[0] <= 130.0
+    assert hit.booleans < 300
+
+
+def test_without_the_leading_face_rule_the_contact_exhausts_the_budget(axes, monkeypatch):
+    """Plants the old behaviour (every face of both parts in the covers): the touching blocks
+    then need an exact boolean at almost every pose and the sweep stops at its budget."""
+    from procedura_brep.sim import sweep
+
+    monkeypatch.setattr(sweep.SweepScene, "slide_side", lambda self, joint, a, b: 0)
+    monkeypatch.setattr(sweep, "TOL", dataclasses.replace(TOL, sweep_max_booleans=400))
+    hit = _sweep(axes[False])
+    assert hit.stopped and "block_lf" in hit.stopped
+
+
+def test_faces_along_the_motion_neither_lead_nor_oppose():
+    from build123d import Box, Cylinder, Rot, Sphere
+
+    from procedura_brep.kernel import _ocp
+
+    o = _ocp()
+    u = np.array([1.0, 0.0, 0.0])
+
+    def sides(shape):
+        out = []
+        exp = o["TopExp"].TopExp_Explorer(shape.wrapped, o["TopAbs"].TopAbs_FACE)
+        while exp.More():
+            out.append(side_of_motion(o["TopoDS"].TopoDS.Face(exp.Current()), u, o))
+            exp.Next()
+        return out
+
+    box = sides(Box(10, 10, 10))
+    assert sorted(box) == sorted([(True, False), (False, True)] + [(False, False)] * 4)
+    rod = sides(Rot(0, 90, 0) * Cylinder(5, 20))  # a rod along X: its side slides in itself
+    assert sorted(rod) == sorted([(False, False), (True, False), (False, True)])
+    assert sides(Sphere(5)) == [(True, True)]  # curved: assumed to do both (conservative)
