@@ -329,6 +329,7 @@ def test_toothed_drum_on_a_slotted_plate_is_decided_exactly(boss_r, fails):
     f = found[0]
     assert f.value == pytest.approx(0.3, rel=0.2) and "mesh estimate" not in f.message
     assert f.message.startswith("plate and drum interpenetrate")
+    assert "plate at (" in f.message and "in its own coordinates, near its " in f.message
     row = res.measured["pairs"][0]
     assert row["exact"] and row["volume_mm3"] > 0
     assert np.hypot(*row["point"][:2]) == pytest.approx(10.0, abs=0.35)  # on the bore wall

@@ -37,6 +37,7 @@ from ..config import TOL
 from ..program.model import CompiledMate, CompiledModel, Finding
 from .common import Common, common
 from .geometry import box_pairs, part_geometry
+from .locate import describe
 from .mate_gate import penetration_limit, region, unverified_finding
 from .policy import GateResult, result
 
@@ -177,10 +178,12 @@ def interference_findings(model: CompiledModel, rows: list[PairOverlap]) -> list
             why = f"beyond what the fit of mate {r.mate} allows"
         vol = "" if r.volume is None else f", volume {r.volume:.3g} mm^3"
         box = f" at ({_fmt(r.point)}) mm, bbox ({_fmt(r.lo)})..({_fmt(r.hi)}) mm"
+        where = "; ".join(describe(model.part(n), np.asarray(r.point)) for n in (r.b, r.a)) \
+            if r.point else ""
         out.append(Finding(
             "interference",
             f"{r.b} and {r.a} interpenetrate: depth {r.depth:.3g} mm{vol}{box} > {r.limit:.3g} mm "
-            f"allowed ({why}); move {r.b} out of {r.a} or shrink one of them",
+            f"allowed ({why}); there: {where}; move {r.b} out of {r.a} or shrink one of them",
             part=r.b, mate=r.mate, line=lines.get(r.b), value=r.depth, limit=r.limit))
     return out
 
