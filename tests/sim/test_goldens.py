@@ -90,3 +90,22 @@ def test_golden_usd_base_matches_mjcf(name, worker, tmp_path_factory):
         j = UsdPhysics.FixedJoint(fixed[0])
         assert j.GetBody0Rel().GetTargets() == []
         assert [t.name for t in j.GetBody1Rel().GetTargets()] == [art.root.name]
+
+
+def test_rocker_touching_the_chassis_costs_the_turn_sweep_no_boolean_per_pose(worker, tmp_path_factory,
+                                                                               monkeypatch):
+    """Issue 23.2 / 24.1: the rover's rocker turns against the chassis face it bears on (planes
+    normal to its pivot, a hub about it). Clear at the range's start, the pair is swept without
+    the faces the turn moves within themselves, on both parts: a handful of exact booleans where
+    the old sweep ran one at every pose (plant: every pose again with the reduction off)."""
+    from procedura_brep.sim.sweep import SweepScene
+
+    model, _ = _built("rover", worker, tmp_path_factory)
+    art = articulate(model)
+    joint = art.joint("rocker_l_pivot")
+    hit = SweepScene(model, art).sweep(joint)
+    assert ("rocker_l", "chassis") in hit.contact and hit.depth == 0.0
+    assert hit.booleans <= 5, hit.booleans
+    monkeypatch.setattr(SweepScene, "clear_start", lambda self, j, a, b: 0)
+    old = SweepScene(model, art).sweep(joint)
+    assert old.booleans >= 4 * hit.booleans and old.depth == 0.0

@@ -33,7 +33,7 @@ def test_blocks_touching_their_rails_over_760_mm_pass_with_few_booleans(axes):
     assert not hit.stopped and hit.pair is None and hit.depth == 0.0
     # every block touches its rail on three faces at every pose, yet the sweep needs no more
     # exact booleans than pairs (the old sweep spent its 1500 on the first pair and failed)
-    assert {("block_lf", "rail_l"), ("block_rb", "rail_r")} <= set(hit.sliding)
+    assert {("block_lf", "rail_l"), ("block_rb", "rail_r")} <= set(hit.contact)
     assert hit.booleans <= 20, hit.booleans
 
 
@@ -54,7 +54,7 @@ def test_without_the_leading_face_rule_the_contact_exhausts_the_budget(axes, mon
     then need an exact boolean at almost every pose and the sweep stops at its budget."""
     from procedura_brep.sim import sweep
 
-    monkeypatch.setattr(sweep.SweepScene, "slide_side", lambda self, joint, a, b: 0)
+    monkeypatch.setattr(sweep.SweepScene, "clear_start", lambda self, joint, a, b: 0)
     monkeypatch.setattr(sweep, "TOL", dataclasses.replace(TOL, sweep_max_booleans=400))
     hit = _sweep(axes[False])
     assert hit.stopped and "block_lf" in hit.stopped

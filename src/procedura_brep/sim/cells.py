@@ -208,14 +208,10 @@ def cell_side(tris: np.ndarray, cell: float = TOL.sweep_cell_mm, max_cells: int 
     return max(cell, math.sqrt(area / max_cells), 2.0 * edge / MAX_SUBDIV)
 
 
-def cover(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
-          keep=None, cell: float = TOL.sweep_cell_mm, max_cells: int | None = None) -> Cover:
-    """The sphere cover of the located, meshed ``shape``; with ``axis`` = (point, unit
-    direction), the faces invariant under rotation about it are left out; with ``keep`` (a
-    ``keep(face, ocp) -> bool`` filter such as :func:`faces_along`), only the faces it keeps
-    are covered. ``cell`` is the
-    finest cell side; :func:`cell_side` widens it to keep about ``max_cells`` (default
-    ``TOL.sweep_max_cells``) cells."""
+def surface(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
+            keep=None) -> tuple[np.ndarray, float]:
+    """(triangles (n, 3, 3) of the located, meshed ``shape``'s covered faces, world mm; the
+    tessellation's linear deflection, mm): the faces :func:`cover` would cover."""
     from ..kernel import _ocp, mesh_deflection
     o = _ocp()
     # the shipped tessellation's settings (a no-op where the shape is already meshed so)
@@ -231,14 +227,34 @@ def cover(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
         if keep is not None and not keep(face, o):
             continue
         tris.append(_triangles(face, o))
-    tris_all = np.vstack(tris) if tris else np.zeros((0, 3, 3))
-    cell = cell_side(tris_all, cell, max_cells)
+    return (np.vstack(tris) if tris else np.zeros((0, 3, 3))), float(linear)
+
+
+def cover_of(tris: np.ndarray, linear: float, cell: float) -> Cover:
+    """The sphere cover of triangles (n, 3, 3) meshed at deflection ``linear`` with cells of
+    side ``cell`` (see the module doc)."""
     h = cell / 2.0
-    keys = _cells(tris_all, h, cell)
+    keys = _cells(tris, h, cell)
     centres = (keys + 0.5) * cell
-    radius = cell * np.sqrt(3.0) / 2.0 + h + linear
-    return Cover(np.asarray(centres, float), float(radius))
+    return Cover(np.asarray(centres, float), float(cover_radius(cell, linear)))
 
 
-__all__ = ["Cover", "cell_side", "cover", "faces_along", "invariant_under_rotation",
-           "side_of_motion"]
+def cover_radius(cell: float, linear: float) -> float:
+    """The sphere radius of a cover with cells of side ``cell`` over a mesh of deflection
+    ``linear``: half the cell's diagonal, the point spacing (half a cell) and the deflection."""
+    return cell * math.sqrt(3.0) / 2.0 + cell / 2.0 + linear
+
+
+def cover(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
+          keep=None, cell: float = TOL.sweep_cell_mm, max_cells: int | None = None) -> Cover:
+    """The sphere cover of the located, meshed ``shape``; with ``axis`` = (point, unit
+    direction), the faces invariant under rotation about it are left out; with ``keep`` (a
+    ``keep(face, ocp) -> bool`` filter such as :func:`faces_along`), only the faces it keeps
+    are covered. ``cell`` is the finest cell side; :func:`cell_side` widens it to keep about
+    ``max_cells`` (default ``TOL.sweep_max_cells``) cells."""
+    tris, linear = surface(shape, axis=axis, keep=keep)
+    return cover_of(tris, linear, cell_side(tris, cell, max_cells))
+
+
+__all__ = ["Cover", "cell_side", "cover", "cover_of", "cover_radius", "faces_along",
+           "invariant_under_rotation", "side_of_motion", "surface"]

@@ -35,7 +35,12 @@ Cost is kept down by prefilters, all conservative for the thickness measure:
   with the moved part's *leading* faces against the fixed part's *opposing* faces only
   (:func:`.cells.faces_along`: faces parallel to the motion slide within themselves and cannot
   start an overlap), so faces that touch along the motion cost nothing, whatever their length,
-  while a stop in the path is found at the pose where the moved part meets it.
+  while a stop in the path is found at the pose where the moved part meets it;
+* **turning contact** likewise: for a turn, a pair clear at the range's start leaves out the
+  faces of *both* parts that the rotation moves within themselves (planes normal to the axis,
+  surfaces of revolution about it, :func:`.cells.invariant_under_rotation`): a moved point can
+  enter the fixed part only where the fixed part's outward normal opposes its velocity, never
+  on such a face, so a tilting head between the cheeks of its yoke costs no boolean there.
 
 A sweep that still spends ``TOL.sweep_max_booleans`` stops and is **not verified** (it names
 the pair and the pose it reached), never a pass and never a failure of parts that merely touch.
@@ -56,7 +61,8 @@ from ..config import TOL
 from ..mates.kinds import CONTINUOUS, PRISMATIC, REVOLUTE, Motion
 from ..mates.placement import motion_delta, rigid_inverse, rot_x, rot_z, trans
 from ..program.model import CompiledModel
-from .cells import Cover, cover, faces_along
+from ..gates.geometry import box_pairs
+from .cells import Cover, cell_side, cover_of, cover_radius, faces_along, surface
 from .contact import Overlap, exact_overlap
 
 log = logging.getLogger(__name__)
@@ -109,8 +115,9 @@ class SweepHit:
     #: The first pose (label) at which the worst pair's new interference exceeded
     #: ``TOL.sim_penetration_mm``: where the moved part meets the fixed one ("" if none).
     first_at: str = ""
-    #: Pairs swept on their leading and opposing faces only (sliding contact, see the module).
-    sliding: list[tuple[str, str]] = field(default_factory=list)
+    #: Pairs clear at the range's start, swept on the faces that can start an overlap only
+    #: (sliding and turning contact, see the module).
+    contact: list[tuple[str, str]] = field(default_factory=list)
     #: World point (mm) inside the worst common, at the pose ``at``.
     point: list[float] = field(default_factory=list)
 
@@ -121,7 +128,7 @@ class SweepHit:
                 "samples": self.samples, "booleans": self.booleans,
                 "max_step_mm": self.step_mm,
                 "rest_interfering_pairs": [list(p) for p in self.skipped_rest],
-                "sliding_pairs": [list(p) for p in self.sliding],
+                "contact_pairs": [list(p) for p in self.contact],
                 "not_verified": self.stopped or None}
 
 
@@ -220,7 +227,8 @@ class SweepScene:
         self._box: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._rest: dict[tuple[str, str], Overlap] = {}
         self._extent: dict[tuple[str, bytes], tuple[float, float]] = {}
-        self._cover: dict[tuple[str, bytes], tuple[Cover, cKDTree | None]] = {}
+        self._surface: dict[tuple[str, bytes, bytes], tuple[np.ndarray, float, float]] = {}
+        self._pair_cover: dict[tuple, tuple[tuple[Cover, cKDTree | None], tuple[Cover, cKDTree | None]]] = {}
         self.booleans = 0
         self._joint_start = 0  # self.booleans when the current joint's sweep began
 
@@ -231,12 +239,14 @@ class SweepScene:
             raise _BudgetSpent(where())
         self.booleans += 1
 
-    def cover(self, name: str, joint: Joint | None = None,
-              side: int = 0) -> tuple[Cover, cKDTree | None]:
-        """The part's surface sphere cover at rest (world mm) and a KD-tree of its centres;
-        with a revolute or continuous ``joint``, without the faces its rotation leaves in
-        place; with a sliding ``joint`` and ``side`` +1 (-1), only the faces that may lead
-        (oppose) its motion (:mod:`.cells`)."""
+    def surface(self, name: str, joint: Joint | None = None,
+                side: int = 0) -> tuple[np.ndarray, float, float]:
+        """(triangles (n, 3, 3) world mm at rest, the mesh deflection, the cell side) of the
+        part's faces a sweep covers: with a revolute or continuous ``joint``, without the faces
+        its rotation leaves in place (with ``side`` -1 too: a fixed part of a pair clear at the
+        start); with a sliding ``joint`` and ``side`` +1 (-1), only the
+        faces that may lead (oppose) its motion (:mod:`.cells`). The cell side is the whole
+        surface's (:func:`.cells.cell_side`), so every cover of the part agrees on it."""
         axis = None
         keep = None
         if joint is not None and joint.kind.turns:
@@ -247,10 +257,17 @@ class SweepScene:
             keep = faces_along(u, side)
             tag = np.round(u * side, 9).tobytes()
         key = (name, b"" if axis is None else np.round(np.concatenate(axis), 9).tobytes(), tag)
-        if key not in self._cover:
-            c = cover(self.model.part(name).shape(), axis=axis, keep=keep)
-            self._cover[key] = (c, cKDTree(c.centres) if len(c.centres) else None)
-        return self._cover[key]
+        if key not in self._surface:
+            tris, linear = surface(self.model.part(name).shape(), axis=axis, keep=keep)
+            self._surface[key] = (tris, linear, cell_side(tris))
+        return self._surface[key]
+
+    def cover(self, name: str, joint: Joint | None = None,
+              side: int = 0) -> tuple[Cover, cKDTree | None]:
+        """The part's whole surface sphere cover at rest (world mm) and a KD-tree of its
+        centres, faces as :meth:`surface`."""
+        tris, linear, cell = self.surface(name, joint, side)
+        return _with_tree(cover_of(tris, linear, cell))
 
     def _local_box(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         if name not in self._box:
@@ -350,19 +367,39 @@ class SweepScene:
 
     def _covers(self, joint: Joint, a: str, b: str, side: int) -> tuple[tuple[Cover, cKDTree | None],
                                                                          tuple[Cover, cKDTree | None]]:
-        """The covers a pair is swept with: all of ``b``, ``a`` without its invariant faces; with
-        ``side`` 1 (a slide from a clear start), ``a``'s leading and ``b``'s opposing faces."""
-        if side:
-            return self.cover(a, joint, side), self.cover(b, joint, -side)
-        return self.cover(a, joint), self.cover(b)
+        """The covers a pair is swept with: ``b``'s faces, ``a``'s without its invariant ones;
+        with ``side`` 1 (a slide from a clear start), ``a``'s leading and ``b``'s opposing
+        faces. Only triangles whose orbit can come within reach of the other part's are
+        covered (:func:`_orbit_boxes`): the cells of a large part far from the joint's reach
+        are never laid."""
+        key = (a, b, joint.name, joint.type, side)
+        if key not in self._pair_cover:
+            ta, la, ca = self.surface(a, joint, side)
+            tb, lb, cb = self.surface(b, joint if side else None, -side)
+            inv = rigid_inverse(joint.frame)
+            reach = cover_radius(ca, la) + cover_radius(cb, lb) + TOL.sweep_box_slack_mm
+            lo_a, hi_a = _orbit_boxes(ta, inv, joint.kind.slides)
+            lo_b, hi_b = _orbit_boxes(tb, inv, joint.kind.slides)
+            # each side against the other's whole orbit box first (linear), then pair by pair
+            ia = _in_box(lo_a, hi_a, lo_b.min(axis=0, initial=np.inf), hi_b.max(axis=0, initial=-np.inf), reach)
+            ib = _in_box(lo_b, hi_b, lo_a.min(axis=0, initial=np.inf), hi_a.max(axis=0, initial=-np.inf), reach)
+            near = box_pairs(lo_a[ia], hi_a[ia], reach, lo_b[ib], hi_b[ib])
+            keep_a, keep_b = ia[np.unique(near[:, 0])], ib[np.unique(near[:, 1])]
+            self._pair_cover[key] = (_with_tree(cover_of(ta[keep_a], la, ca)),
+                                     _with_tree(cover_of(tb[keep_b], lb, cb)))
+        return self._pair_cover[key]
 
-    def slide_side(self, joint: Joint, a: str, b: str) -> int:
-        """1 when a sliding ``joint``'s pair is swept on leading and opposing faces only: the
-        parts do not overlap at the range's lower end (exactly: no common thicker than
-        ``TOL.sweep_rest_interference_mm``), so an overlap can only start through them; else 0."""
-        if not joint.kind.slides or joint.lower is None:
+    def clear_start(self, joint: Joint, a: str, b: str) -> int:
+        """1 when the pair is swept on the faces that can start an overlap only (a slide's
+        leading and opposing faces; a turn's faces that are not invariant under it, on both
+        parts): the parts do not overlap where the sweep starts (exactly: no common thicker
+        than ``TOL.sweep_rest_interference_mm``); else 0."""
+        if joint.kind.endless:
+            q = 0.0
+        elif (joint.kind.slides or joint.kind.turns) and joint.lower is not None:
+            q = float(joint.lower)
+        else:
             return 0
-        q = float(joint.lower)
         m = motion(joint, q)
         if np.allclose(m, np.eye(4), atol=1e-12):
             depth = self.rest(a, b).depth
@@ -375,7 +412,7 @@ class SweepScene:
     def orbit_cells(self, joint: Joint, a: str, b: str, side: int = 0) -> tuple[np.ndarray, float]:
         """(centres of ``a``'s surface cells whose orbit under the joint passes near ``b``'s
         cells, the largest distance from the axis of any point in them, mm; 0 for a prismatic
-        joint, whose points all move alike); ``side`` as :meth:`slide_side`."""
+        joint, whose points all move alike); ``side`` as :meth:`clear_start`."""
         (ca, _), (cb, _) = self._covers(joint, a, b, side)
         if not len(ca.centres) or not len(cb.centres):
             return ca.centres[:0], 0.0
@@ -408,9 +445,9 @@ class SweepScene:
         try:
             todo, hit.skipped_rest = self.pairs(joint)
             for a, b in todo:
-                side = self.slide_side(joint, a, b)
+                side = self.clear_start(joint, a, b)
                 if side:
-                    hit.sliding.append((a, b))
+                    hit.contact.append((a, b))
                 cells, radius = self.orbit_cells(joint, a, b, side)
                 if not len(cells):
                     continue
@@ -432,7 +469,7 @@ class SweepScene:
         closer than ``sweep_step_mm`` at the largest lever arm. No point of a cell within reach of
         the fixed part moves more than ``sweep_step_mm`` between two poses. Returns the number of
         poses; the deepest new interference is recorded in ``hit`` as it is found, so a sweep
-        stopped at its budget keeps it. With ``side`` (:meth:`slide_side`) the cells are the
+        stopped at its budget keeps it. With ``side`` (:meth:`clear_start`) the cells are the
         leading and opposing faces' only."""
         (ca, _), (cb, tb) = self._covers(joint, a, b, side)
         inv = rigid_inverse(joint.frame)
@@ -504,7 +541,8 @@ class SweepScene:
         ``radius`` the cells' radius. With ``side`` (leading and opposing faces only) the cells
         still cover the cross-section both parts share (a solid's faces that oppose a direction
         project onto its whole cross-section), but not the moved part's length along the axis:
-        the region then spans the part's whole extent along it."""
+        the region then spans the part's whole extent along it (and, for a turn, its whole
+        radius about the axis)."""
         pa, pb = self.model.part(a), self.model.part(b)
         if rest > 0.0:
             return pa.shape(), pb.shape()
@@ -525,6 +563,9 @@ class SweepScene:
                                          gp_Pnt(float(xhi), float(yhi), zhi)).Shape()
         else:
             r = float(np.linalg.norm(local[:, :2], axis=1).max()) + grow
+            if side:  # the invariant faces left out may bound the part farther out
+                corners = self._corners_in(a, rigid_inverse(joint.frame))
+                r = max(r, float(np.linalg.norm(corners[:, :2], axis=1).max()) + grow)
             region = kernel.located(BRepPrimAPI_MakeCylinder(r, zhi - zlo).Shape(), trans_z(zlo))
         region = kernel.located(region, joint.frame)
 
@@ -570,6 +611,35 @@ class SweepScene:
             hit.stopped = spent.where
         hit.booleans = self.booleans - start
         return hit
+
+
+def _with_tree(c: Cover) -> tuple[Cover, cKDTree | None]:
+    return c, (cKDTree(c.centres) if len(c.centres) else None)
+
+
+def _in_box(lo: np.ndarray, hi: np.ndarray, blo: np.ndarray, bhi: np.ndarray,
+            gap: float) -> np.ndarray:
+    """Indices of the boxes ``lo..hi`` (n, 3) that meet the box ``blo..bhi`` grown by ``gap``."""
+    return np.nonzero(np.all(lo <= bhi + gap, axis=1) & np.all(hi >= blo - gap, axis=1))[0]
+
+
+def _orbit_boxes(tris: np.ndarray, frame_inv: np.ndarray, slides: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Per triangle (world mm), a box holding its orbit's coordinates in a joint frame: its
+    (x, y) under a slide along Z (every point keeps them), its (distance from the axis, z)
+    under a turn about Z (the distance conservatively: its vertices' least less its longest
+    edge, to their greatest). The third coordinate is 0, for :func:`box_pairs`."""
+    if not len(tris):
+        return np.zeros((0, 3)), np.zeros((0, 3))
+    p = tris @ frame_inv[:3, :3].T + frame_inv[:3, 3]
+    lo, hi = np.zeros((len(p), 3)), np.zeros((len(p), 3))
+    if slides:
+        lo[:, :2], hi[:, :2] = p[:, :, :2].min(axis=1), p[:, :, :2].max(axis=1)
+        return lo, hi
+    r = np.linalg.norm(p[:, :, :2], axis=2)
+    edge = np.linalg.norm(p[:, :, :2] - np.roll(p[:, :, :2], 1, axis=1), axis=2).max(axis=1)
+    lo[:, 0], hi[:, 0] = np.maximum(r.min(axis=1) - edge, 0.0), r.max(axis=1)
+    lo[:, 1], hi[:, 1] = p[:, :, 2].min(axis=1), p[:, :, 2].max(axis=1)
+    return lo, hi
 
 
 def trans_z(z: float) -> np.ndarray:
