@@ -403,6 +403,9 @@ def render(
     sheet: Annotated[bool, typer.Option("--sheet", help="Also write a contact sheet with legend.")] = False,
     close_up: Annotated[Optional[str], typer.Option("--close-up", help="A part or mate name.")] = None,
     frames: Annotated[bool, typer.Option("--frames", help="Draw every mate frame's axes.")] = False,
+    frames_of: Annotated[Optional[list[str]], typer.Option(
+        "--frames-of", help="Draw this part's origin and every frame it publishes as axes at their "
+                            "world poses (X red, Y green, Z blue); repeatable, or a comma list.")] = None,
     quiet: QuietOption = False,
 ) -> None:
     """Render views of PROGRAM (parts-colour, grey clay or PBR), with cache and staleness."""
@@ -422,8 +425,10 @@ def render(
     _output_dir(out)
     with _progress(quiet) as progress:
         model = _compiled(program, progress=progress)
+        axes = [n.strip() for v in frames_of or [] for n in v.split(",") if n.strip()]
         res = commands.render(model, out, views=views, mode=mode, size=size, sheet=sheet,
-                              close_up=close_up, frames_overlay=frames, progress=progress)
+                              close_up=close_up, frames_overlay=frames, frames_of=axes,
+                              progress=progress)
     typer.echo(f"{len(res['rendered'])} rendered, {len(res['cached'])} from cache "
                f"({res['seconds']:.2f} s) -> {out}")
     if res["stale_before"]:

@@ -110,6 +110,13 @@ class Tolerances:
             across it when their normals differ by less than this (curved surfaces, whose
             neighbouring triangles differ by at most ~``mesh_angular_rad``); sharper edges
             (box edges, chamfers) split the vertex normals and stay crisp.
+        origin_offset_factor: origin gate (``gates/origin.py``): a part whose body lies farther
+            from its own origin than this many times its own size (the largest side of its
+            local bounding box), with its mounting frame out there at the body (within the same
+            distance of the box), is drawn at its assembly position (a ``part-origin`` warning;
+            the staged agent retries the part). The root is judged on its body alone.
+        origin_offset_min_mm: the origin gate's limit is never below this (tiny parts: a
+            2 mm pin drawn 3 mm off its origin is not the mistake the gate looks for).
     """
 
     placement_mm: float = 1e-6
@@ -163,6 +170,8 @@ class Tolerances:
     wheel_centre_mm: float = 0.5
     wheel_ground_mm: float = 1.0
     drive_max_yaw_deg: float = 5.0
+    origin_offset_factor: float = 1.0
+    origin_offset_min_mm: float = 5.0
 
 
 @dataclass(frozen=True)

@@ -82,10 +82,14 @@ def conventions() -> str:
         "must lie inside `limits`. The MuJoCo battery sweeps each joint through its limits on its own "
         "(the other joints at home), so every moving part must clear its neighbours over its whole "
         "range.",
-        "Coordinates: a part function returns its solid in any coordinates you like (world "
-        "coordinates are simplest); its frames are given in the same coordinates; the compiler then "
-        "moves each part so its mate frames coincide with its partners'. A part that slides or turns "
-        "must still touch its parent (with features=False, model the contact yourself).",
+        "Coordinates: model each part around its own origin, in its own coordinates, with its "
+        "mounting frame (the child frame of the mate that places it) at or near that origin, and give "
+        "its other frames in the same coordinates; the mate places it: the compiler moves each part so "
+        "its mate frames coincide with its partners' (T_child = T_parent * F_parent * Delta * "
+        "F_child^-1). Never draw a part at its assembly position (a Pos(x, y, z) of where it sits in "
+        "the assembly, with frames copied from its parent's; see the origin gate below). The root is "
+        "the one part whose own origin is the assembly's. A part that slides or turns must still touch "
+        "its parent (with features=False, model the contact yourself).",
         "The language: params are numbers or expressions of numbers, earlier params and `math`; helpers "
         "and parts are plain functions (loops, comprehensions, conditionals are fine); frames and "
         "assembly may use expressions and loops too. Forbidden: imports other than `math`, names or "
@@ -110,6 +114,12 @@ def conventions() -> str:
         f"- battery B2: moving one joint over its limits may add at most {TOL.sim_penetration_mm:g} mm "
         "of interference with any other part (the depth and the pose are reported when it does).",
         "- compile: every part is a valid, non-empty solid; an exception names the part and the line.",
+        f"- origin: a part whose body lies farther from its own origin than {TOL.origin_offset_factor:g} x "
+        f"its own largest box side (at least {TOL.origin_offset_min_mm:g} mm), with its mounting frame "
+        "out there at the body, is drawn at its assembly position: a `part-origin` finding naming the "
+        "offset (a warning in `check`; a build attempt or edit with it is refused and retried). The "
+        "root is judged on its body alone. A long part whose frame is at one end is fine: its body "
+        "starts at its origin.",
     ]
     return "\n".join(rows)
 

@@ -45,6 +45,9 @@ from .tools import PartVerdict, Tools
 log = logging.getLogger(__name__)
 Progress = Callable[[str, str], None]
 DONE_WORD = "DONE"
+#: Views of a failed (but compiled) attempt sent with its retry, the part's origin and frames
+#: drawn as axes: two opposite corners, so an axis hidden behind the body in one shows in the other.
+RETRY_VIEWS: tuple[str, ...] = ("iso_se", "iso_nw")
 
 
 class StagedError(ProceduraError):
@@ -280,13 +283,15 @@ class StagedRun:
                                   f"(attempt {attempt})")
                     return
                 candidate = (result, verdict)
-            overhead += time.perf_counter() - t0
             self.progress("build", f"part {k}/{len(plan.parts)} {part.name}: attempt {attempt} failed: "
                           f"{feedback.splitlines()[0] if feedback else ''}")
             self.dir.attempt(self.state, part.name, attempt, feedback)
+            retry_views, note = ([], "") if attempt == self.options.attempts else \
+                self._attempt_views(verdict, part.name)
+            overhead += time.perf_counter() - t0
             history += [Message.assistant(reply.text), Message.user(
                 f"Part {part.name} did not pass. Fix every problem and reply with all five blocks again:\n"
-                + feedback)]
+                + feedback + note, *retry_views)]
         if candidate is not None:
             result, verdict = candidate
             warning = "; ".join(f.message for f in verdict.errors[:3])
@@ -295,6 +300,17 @@ class StagedRun:
                           f"after {self.options.attempts} attempts ({warning})")
         else:
             self._skip(part.name, f"it did not compile in {self.options.attempts} attempts")
+
+    def _attempt_views(self, verdict: PartVerdict | None, name: str) -> tuple[list[Image], str]:
+        """Renders of a failed attempt that compiled, with part ``name``'s origin and frames drawn
+        as axes (:data:`RETRY_VIEWS`), and the note that introduces them; none without feedback
+        renders (``--no-feedback``) or a compiled attempt."""
+        if not self.options.feedback or verdict is None or not verdict.compiled or verdict.model is None:
+            return [], ""
+        images, _ = self.tools.render(verdict.model, list(RETRY_VIEWS), frames_of=(name,))
+        return images, (f"\n\nRenders of this attempt ({', '.join(RETRY_VIEWS)}), with {name}'s own "
+                        f"origin ('{name} origin') and every frame it publishes drawn as axes at "
+                        f"their assembly poses: X red, Y green, Z blue.")
 
     def _try_part(self, text: str, name: str) -> tuple[str, PartVerdict | None, Any]:
         """Parse, splice and gate one reply: (feedback, verdict or None, splice result)."""

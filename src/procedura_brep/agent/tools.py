@@ -15,14 +15,35 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import CompileError
-from ..findings import blocking, blocks
+from ..findings import blocks
+from ..gates.origin import CODE as ORIGIN_CODE
 from ..llm import Image
 from ..program.model import CompiledModel, Finding
+
+#: Finding codes that block an agent attempt although ``check`` and ``build`` only warn about
+#: them: the program is valid but badly structured, and the model can fix it now, while it is
+#: writing the part (``part-origin``: a part drawn at its assembly position, docs/gates.md).
+AGENT_BLOCKING: frozenset[str] = frozenset({ORIGIN_CODE})
+
+
+def attempt_blocks(finding: Finding) -> bool:
+    """The agent's policy for one finding about the part it gates: the build's policy
+    (:func:`procedura_brep.findings.blocks`) plus the codes of :data:`AGENT_BLOCKING`. Every
+    agent gate (a build attempt, a refine edit, a sub-part rewrite or paint) decides here."""
+    return blocks(finding) or finding.code in AGENT_BLOCKING
 
 
 @dataclass
 class PartVerdict:
-    """What the gates say about one newly added (or edited) part."""
+    """What the gates say about one newly added (or edited) part.
+
+    Attributes:
+        compiled: the part is in the compiled model.
+        errors: the findings about the part that block the attempt (:func:`attempt_blocks`).
+        warnings: the other findings about it.
+        n_vis: the model's visible floaters.
+        model: the compiled model (None when the program did not compile).
+    """
 
     compiled: bool
     errors: list[Finding] = field(default_factory=list)
@@ -61,13 +82,14 @@ class Tools:
 
     def gate_part(self, source: str, part: str, *, baseline: int, name: str = "model") -> PartVerdict:
         """Compile, then the gates on ``part``: its compile findings, its mates, pair findings
-        naming it, and connectivity relative to the running ``baseline`` N_vis."""
+        naming it, its origin, and connectivity relative to the running ``baseline`` N_vis; the
+        findings that block are decided by :func:`attempt_blocks`."""
         try:
             model = self.compile_model(source, name)
         except CompileError as exc:
             return PartVerdict(False, exc.findings or [Finding("compile", str(exc))])
         if not model.parts:
-            return PartVerdict(False, blocking(model.findings)
+            return PartVerdict(False, [f for f in model.findings if attempt_blocks(f)]
                                or [Finding("compile", "the program compiled to no parts")], model=model)
         from ..run import gate
         verdict = gate(model, source, baseline=baseline)
@@ -76,16 +98,24 @@ class Tools:
         # a rise of N_vis over the baseline fails whichever part floats; otherwise what names it
         mine = [f for f in verdict.findings
                 if f.code in ("floater", "floater-increase") or involves(f, part, own)]
-        errors = blocking(mine)
-        warnings = [f for f in mine if not blocks(f)]
+        errors = [f for f in mine if attempt_blocks(f)]
+        warnings = [f for f in mine if not attempt_blocks(f)]
         n_vis = int(verdict.report["connectivity"].get("n_vis") or 0)
         return PartVerdict(compiled, errors, warnings, n_vis, model)
 
     def render(self, model: CompiledModel, views: list[str] | None = None, *,
-               close_up: str | None = None) -> tuple[list[Image], str]:
-        """Parts-colour views as PNG images, and the colour legend as text."""
+               close_up: str | None = None, frames_of: tuple[str, ...] = ()) -> tuple[list[Image], str]:
+        """Parts-colour views as PNG images, and the colour legend as text.
+
+        Args:
+            model: the compiled model.
+            views: view names (None: the 12 defaults).
+            close_up: a part or mate to show alone.
+            frames_of: parts whose origin and frames are drawn as axes (X red, Y green, Z blue).
+        """
         from ..render.api import legend_of, render_images
-        imgs = render_images(model, views, mode="parts", size=self.render_size, focus=close_up)
+        imgs = render_images(model, views, mode="parts", size=self.render_size, focus=close_up,
+                             frames_of=frames_of)
         out = []
         for view, img in imgs.items():
             buf = io.BytesIO()

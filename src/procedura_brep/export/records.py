@@ -47,7 +47,9 @@ def mates_json(model: CompiledModel, evidence: dict[str, Any] | None = None) -> 
 
 
 def part_rows(model: CompiledModel) -> list[dict[str, Any]]:
-    """One row per part for ``report.json``: material, detail, volume, box, lines, compile time.
+    """One row per part for ``report.json``: material, detail, volume, world box, the solved
+    placement (``placement``: the 4x4 part-to-world matrix, mm, row-major list of lists), lines,
+    compile time.
 
     Raises:
         KernelError: a part's BRep cannot be read.
@@ -59,6 +61,7 @@ def part_rows(model: CompiledModel) -> list[dict[str, Any]]:
         rows.append({"name": p.name, "material": p.material, "detail": p.detail,
                      **({"block_of": p.block_of} if p.block_of else {}),
                      "volume_mm3": kernel.volume(p.local_shape()), "bbox_mm": [list(lo), list(hi)],
+                     "placement": np.asarray(p.placement, dtype=float).tolist(),
                      "lines": list(p.lines), "compile_s": model.timings.get(f"part:{p.name}")})
     return rows
 

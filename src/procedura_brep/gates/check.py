@@ -16,11 +16,12 @@ from .feedback import format_feedback
 from .interference import interference_gate
 from .mate_gate import mate_gate
 from .metrics import mesh_metrics
+from .origin import origin_gate
 from .pieces import pieces_gate
 from .policy import GateResult, decide, result
 
 #: Version of the report layout below; bump when a field changes meaning.
-REPORT_VERSION: int = 2
+REPORT_VERSION: int = 3
 
 
 @dataclass
@@ -31,7 +32,7 @@ class CheckReport:
         model: model name.
         passed: no error finding in any gate (compile findings included).
         gates: one :class:`GateResult` per gate, in order compile, mate, pieces, interference,
-            connectivity.
+            connectivity, origin.
         metrics: :func:`~procedura_brep.gates.metrics.mesh_metrics`.
         feedback: every finding formatted for the model (empty when clean).
         timings: seconds per stage.
@@ -68,6 +69,7 @@ class CheckReport:
             "pieces": self.gate("pieces").measured,
             "interference": self.gate("interference").measured,
             "connectivity": conn,
+            "origin": self.gate("origin").measured,
             "metrics": self.metrics,
             "triangles_per_part": self.metrics.get("triangles_per_part", {}),
             "findings": [f.as_dict() for f in self.findings],
@@ -78,7 +80,8 @@ class CheckReport:
 
 def check_model(model: CompiledModel, source: str | None = None, *,
                 baseline: int | None = None) -> CheckReport:
-    """Run the compile, mate, pieces, interference and connectivity gates and the mesh metrics.
+    """Run the compile, mate, pieces, interference, connectivity and origin gates and the mesh
+    metrics.
 
     Args:
         model: a compiled model (its own ``findings`` are the compile gate's).
@@ -112,7 +115,10 @@ def check_model(model: CompiledModel, source: str | None = None, *,
     t2 = time.perf_counter()
     metrics = mesh_metrics(model, conn=conn)
     timings["metrics"] = time.perf_counter() - t2
-    gates = [compile_res, mate_res, pieces_res, inter_res, conn_res]
+    t2 = time.perf_counter()
+    _, origin_res = origin_gate(model)
+    timings["origin"] = time.perf_counter() - t2
+    gates = [compile_res, mate_res, pieces_res, inter_res, conn_res, origin_res]
     findings = [f for g in gates for f in g.findings]
     timings["total"] = time.perf_counter() - t0
     return CheckReport(model.name, decide(findings), gates, metrics,

@@ -11,13 +11,13 @@ from ..headless import ensure_headless
 
 ensure_headless()
 
-from .api import (CLOSE_UP_VIEWS, MODES, Focus, RenderResult, legend_of, render_images,  # noqa: E402
-                  render_to_dir, resolve_focus)
+from .api import (CLOSE_UP_VIEWS, MODES, Focus, RenderResult, legend_of, part_frames,  # noqa: E402
+                  render_images, render_to_dir, resolve_focus)
 from .cache import ViewStatus, geometry_key, views_status  # noqa: E402
 from .palette import PALETTE, part_colors  # noqa: E402
 from .views import DEFAULT_VIEWS, VIEWS, View, fit_camera, parse_views  # noqa: E402
 
 __all__ = ["CLOSE_UP_VIEWS", "DEFAULT_VIEWS", "MODES", "PALETTE", "VIEWS", "Focus", "RenderResult",
            "View", "ViewStatus", "ensure_headless", "fit_camera", "geometry_key", "legend_of",
-           "parse_views", "part_colors", "render_images", "render_to_dir", "resolve_focus",
-           "views_status"]
+           "parse_views", "part_colors", "part_frames", "render_images", "render_to_dir",
+           "resolve_focus", "views_status"]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import logging
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -67,6 +68,27 @@ def resolve_focus(model: CompiledModel, name: str) -> Focus:
                      f"{', '.join(parts)}; mates: {', '.join(m.name for m in model.mates) or '(none)'}")
 
 
+def part_frames(model: CompiledModel, names: Sequence[str]) -> list[tuple[str, np.ndarray]]:
+    """The frames of the parts ``names`` at their world poses, for the axes overlay: each part's
+    own origin (its solved placement, labelled ``<part> origin``), then every frame it publishes
+    (``<part>.<frame>``), in name order.
+
+    Raises:
+        ValueError: a name that is not a part (the message lists the parts).
+    """
+    parts = {p.name: p for p in model.parts}
+    unknown = [n for n in names if n not in parts]
+    if unknown:
+        raise ValueError(f"no part named {', '.join(map(repr, unknown))} to draw the frames of; "
+                         f"parts: {', '.join(parts) or '(none)'}")
+    out: list[tuple[str, np.ndarray]] = []
+    for name in dict.fromkeys(names):
+        p = parts[name]
+        out.append((f"{name} origin", np.asarray(p.placement, float)))
+        out += [(f"{name}.{f}", np.asarray(p.world_frame(f), float)) for f in sorted(p.frames)]
+    return out
+
+
 def _check(mode: str, size: int) -> None:
     if mode not in MODES:
         raise ValueError(f"unknown render mode {mode!r}; use one of: {', '.join(MODES)}")
@@ -76,7 +98,8 @@ def _check(mode: str, size: int) -> None:
 
 def render_images(model: CompiledModel, views: str | list[str] | None = None, *, mode: Mode = "parts",
                   size: int = 512, focus: str | None = None,
-                  frames_overlay: bool = False) -> dict[str, Image.Image]:
+                  frames_overlay: bool = False,
+                  frames_of: Sequence[str] = ()) -> dict[str, Image.Image]:
     """Render ``views`` of ``model`` in memory: view name -> RGB PIL image (``size`` square).
 
     Args:
@@ -86,9 +109,15 @@ def render_images(model: CompiledModel, views: str | list[str] | None = None, *,
         size: image side in pixels, 32..4096.
         focus: a part or mate name for a close-up (draws only that part / the mate's two parts).
         frames_overlay: draw every mate frame's axes (a close-up always draws its own frames).
+        frames_of: parts whose own origin and published frames are drawn as axes at their
+            world poses (:func:`part_frames`): X red, Y green, Z blue.
+
+    Raises:
+        ValueError: an unknown mode, view, close-up or ``frames_of`` name.
     """
     _check(mode, size)
     names = parse_views(views)
+    extra = part_frames(model, frames_of) if frames_of else []
     colors = part_colors([p.name for p in model.parts])
     shown = None
     if focus is not None:
@@ -99,6 +128,9 @@ def render_images(model: CompiledModel, views: str | list[str] | None = None, *,
         lo, hi = scene.bounds(model)
         frames = [(m.name, np.asarray(m.world_frame, float)) for m in model.mates] if frames_overlay else []
         axis_len = FRAME_AXIS_FRACTION * float(np.linalg.norm(hi - lo))
+    if extra:
+        drawn = {n for n, _ in frames}
+        frames = list(frames) + [(n, m) for n, m in extra if n not in drawn]
     verts = scene.vertex_array(model, colors, shown)
     cams = [fit_camera(VIEWS[n], lo, hi) for n in names]
     out: dict[str, Image.Image] = {}
@@ -152,15 +184,18 @@ class RenderResult:
 
 def render_to_dir(model: CompiledModel, out_dir: str | Path, *, views: str | list[str] | None = None,
                   mode: Mode = "parts", size: int = 512, sheet: bool = False,
-                  close_up: str | None = None, frames_overlay: bool = False) -> RenderResult:
+                  close_up: str | None = None, frames_overlay: bool = False,
+                  frames_of: Sequence[str] = ()) -> RenderResult:
     """Render views (and optionally a contact sheet and a close-up) of ``model`` into ``out_dir``.
 
     Files: ``<mode>_<view>.png``, ``<mode>_sheet.png``, ``<mode>_closeup_<name>_<view>.png``,
     ``<mode>_closeup_<name>_sheet.png``, ``legend.json`` and the cache manifest ``renders.json``.
-    Images whose cache key matches the manifest are not redrawn.
+    Images whose cache key matches the manifest are not redrawn. ``frames_of`` draws the named
+    parts' origins and frames as axes in every image (:func:`part_frames`).
 
     Raises:
-        ValueError: unknown mode, view or close-up name (the message lists the valid ones).
+        ValueError: unknown mode, view, close-up or ``frames_of`` name (the message lists the
+            valid ones).
         RangeError: ``size`` outside 32..4096 or more than 20 views.
     """
     t0 = time.perf_counter()
@@ -172,6 +207,7 @@ def render_to_dir(model: CompiledModel, out_dir: str | Path, *, views: str | lis
     geo = geometry_key(model)
     res = RenderResult(out_dir=out, geometry=geo,
                        legend={n: hex_color(c) for n, c in legend_of(model)})
+    axes = [(n, np.round(m, 6).tolist()) for n, m in part_frames(model, frames_of)] if frames_of else []
     jobs: list[tuple[str | None, list[str], str]] = [(None, names, "")]
     if close_up is not None:
         resolve_focus(model, close_up)  # fail early on an unknown name
@@ -180,11 +216,12 @@ def render_to_dir(model: CompiledModel, out_dir: str | Path, *, views: str | lis
     for focus, vnames, prefix in jobs:
         overlay = frames_overlay if focus is None else True
         keys = {v: image_key(model, geo, {"mode": mode, "size": size, "view": v, "focus": focus,
-                                          "overlay": overlay}) for v in vnames}
+                                          "overlay": overlay, **({"axes": axes} if axes else {})})
+                for v in vnames}
         files = {v: f"{mode}_{prefix}{v}.png" for v in vnames}
         todo = [v for v in vnames if not man.hit(files[v], keys[v])]
         images = render_images(model, todo, mode=mode, size=size, focus=focus,
-                               frames_overlay=overlay) if todo else {}
+                               frames_overlay=overlay, frames_of=frames_of) if todo else {}
         label = (lambda v: v) if focus is None else (lambda v: f"closeup:{v}")
         for v in vnames:
             path = out / files[v]
