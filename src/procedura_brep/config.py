@@ -75,6 +75,19 @@ class Tolerances:
         sweep_separation_m: battery B2: max separation of a child's joint anchor from its
             parent's during a sweep, metres.
         settle_joint_speed: battery B1: max joint speed (rad/s or m/s) after the settle.
+        hold_drift_deg: battery B1: the most a position-held revolute (or a limited cylindrical
+            turn, or a ball, by its rotation angle) may drift from its home after the settle.
+            B1 holds with an integral term, so a servo with the effort to carry its load ends
+            within micro-degrees of home: what is left is the effort's shortfall. 1 deg is about
+            the backlash of a plain spur gearhead, the most an engineer would let a held joint
+            droop without asking for a stronger drive.
+        hold_drift_mm: battery B1: the same for a prismatic joint (a cylindrical slide), mm:
+            1 mm is a coarse general tolerance (ISO 2768-c is +-0.8 mm at 30-120 mm).
+        hold_tip_mm: battery B1: the most a held joint's drift alone may move the far end of
+            its child subtree (any corner of a subtree geom's box, every other joint at home),
+            mm. 3 mm is a droop one sees at the end of a desk-sized arm, well above its fits'
+            tenths of a millimetre; it catches a drift under ``hold_drift_deg`` on a long
+            lever (0.5 deg at 400 mm is 3.5 mm).
         drive_min_ratio: battery B4: min ratio of travelled to ideal rolling distance.
         symmetry_eig_rel: articulation evidence: two surface-covariance eigenvalues closer than
             this fraction of the largest are equal (symmetry axes).
@@ -155,6 +168,9 @@ class Tolerances:
     sweep_reach: float = 0.97
     sweep_separation_m: float = 3e-3
     settle_joint_speed: float = 0.05
+    hold_drift_deg: float = 1.0
+    hold_drift_mm: float = 1.0
+    hold_tip_mm: float = 3.0
     drive_min_ratio: float = 0.3
     symmetry_eig_rel: float = 0.02
     contact_plane_cos: float = 0.99995

@@ -20,6 +20,7 @@ import tempfile
 import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -33,6 +34,9 @@ from .fidelity import check_b0, check_b5, check_b6
 from .frames import render_frames
 from ..paths import program_name
 from .report import BatteryReport, CheckResult
+
+if TYPE_CHECKING:
+    from .sweep import SweepHit
 
 log = logging.getLogger(__name__)
 
@@ -125,12 +129,11 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
         hit = scene.sweep(j, extra=(r["qmin"], r["qmax"]) if r else ())
         pen = hit.depth
         if r:
-            rows[j.name] = {"reach": r["reach"], "qmin": r["qmin"], "qmax": r["qmax"],
-                            "separation_m": r["separation_m"], **hit.as_dict()}
+            rows[j.name] = {**_reach_row(r), **hit.as_dict()}
         else:  # a cylindrical joint: one row per DOF for the drive, one for the exact sweep
             rows[j.name] = hit.as_dict()
-            rows.update({n: {"reach": x["reach"], "qmin": x["qmin"], "qmax": x["qmax"],
-                             "separation_m": x["separation_m"]} for n, x in reached.items()})
+            rows.update({n: _reach_row(x) for n, x in reached.items()})
+        _why_no_samples(rows[j.name], hit)
         bad = False
         if hit.stopped:
             problems.append(_stopped(j.name, hit))
@@ -142,7 +145,7 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
         for name, x in reached.items():
             if x["reach"] < TOL.sweep_reach:
                 problems.append(f"joint {name!r} reached {100 * x['reach']:.1f}% of its range "
-                                f"(needs {100 * TOL.sweep_reach:.0f}%)")
+                                f"(needs {100 * TOL.sweep_reach:.0f}%): {x['why']}")
                 bad = True
             if x["separation_m"] > TOL.sweep_separation_m:
                 problems.append(f"joint {name!r}: child separates {x['separation_m']:.3g} m from parent")
@@ -161,6 +164,23 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
               "max_separation_m": TOL.sweep_separation_m}
     return CheckResult("B2", "joint sweeps", not problems, measured, limits,
                        "; ".join(problems) or f"{len(rows)} joints swept"), worst_traj
+
+
+def _reach_row(x: dict[str, Any]) -> dict[str, Any]:
+    """The B2 row of one MuJoCo-driven DOF: its reach, where it got, and why it fell short
+    (``why``/``cause`` are None when it reached ``TOL.sweep_reach``; ``ramp_s`` and
+    ``ramp_needed_s``: the time the ramp gave its range and the time its velocity limit needs)."""
+    return {k: x[k] for k in ("reach", "qmin", "qmax", "separation_m", "why", "cause", "ramp_s",
+                              "ramp_needed_s")}
+
+
+def _why_no_samples(row: dict[str, Any], hit: SweepHit) -> None:
+    """Say in ``row`` (``samples_why``) why the exact sweep ``hit`` ran no pose: nothing of the
+    moved subtree can come within reach of a fixed part along the range."""
+    if hit.samples == 0 and not hit.stopped:
+        row["samples_why"] = ("no pose needed an exact check: the envelope, extent and surface-"
+                              "cell prefilters ruled out every (moved, fixed) part pair, so no "
+                              "moved part comes within reach of a fixed one along the range")
 
 
 def _stopped(joint: str, hit) -> str:

@@ -1,4 +1,4 @@
-"""Dynamic checks in MuJoCo: B1 settle, B2 joint sweeps, B4 wheeled mobility, B7 smoke run.
+"""Dynamic checks in MuJoCo: B1 settle and hold, B2 joint sweeps, B4 wheeled mobility, B7 smoke run.
 
 Each function takes a compiled ``MjModel`` and returns a :class:`CheckResult` plus the qpos
 trajectory of the phase it judged (for frames when it fails).
@@ -7,25 +7,57 @@ trajectory of the phase it judged (for frames when it fails).
 from __future__ import annotations
 
 import math
+import re
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..articulation.tree import Articulation, JointDof
 from ..config import TOL
+from ..export.mjcf import SERVO_OMEGA
+from ..mates.kinds import JointKind
 from .report import CheckResult
+
+if TYPE_CHECKING:
+    from mujoco import MjData, MjModel
 
 #: B1: simulated settle time, s.
 SETTLE_S = 2.0
 #: B1: max root linear speed at the end of the settle (m/s), free roots only.
 SETTLE_ROOT_SPEED = 0.05
+#: B1: the drift of a held joint is its largest over the last this many seconds of the settle
+#: (once the hold's setpoint has settled, :data:`HOLD_KI`), so a saturated joint that swings
+#: about a sagged pose is judged by its swing, not by where the swing was at 2 s.
+HOLD_WINDOW_S = 1.0
+#: B1: integral gain of the hold, 1/s. Each position servo's setpoint is moved by this rate times
+#: its error (home minus where it is), as a real servo controller's integral term does: the
+#: exported servos are proportional (8 Hz), so without it a servo that is far from its effort
+#: still droops by load / stiffness (the recorded robot arm's wrist drooped 4.3 deg under 0.09 N m
+#: with 10 N m of effort). With it, a servo that is not saturated ends at home to within
+#: micro-degrees and the drift that is left is what the effort cannot hold. A fifth of the
+#: servo's natural frequency: the setpoint settles in ~0.1 s, well apart from the servo itself.
+HOLD_KI = SERVO_OMEGA / 5.0
+#: B1/B2: an actuator whose force is within this fraction of its force limit is saturated.
+SATURATION = 0.99
+#: B1: the effort a failure suggests is this times the gravity load at home (rounded up).
+EFFORT_MARGIN = 1.2
 #: B2: ramp and hold durations, s.
 SWEEP_RAMP_S, SWEEP_HOLD_S = 1.5, 0.5
 #: B2: continuous joints are spun at this fraction of their velocity limit (capped at 2 pi).
 SPIN_FRACTION = 0.5
+#: B2: the spin lasts this long, s.
+SPIN_S = 1.0
+#: B2: a joint moving faster than this (rad/s or m/s) at the end of a hold is still on its way.
+MOVING_SPEED = 1e-3
+#: B2: the most contact pairs a reason names.
+MAX_PAIRS = 3
 #: B4: drive time, s (the minimum travel ratio is ``TOL.drive_min_ratio``).
 DRIVE_S = 3.0
 #: B7: smoke-run length and control period, s; RNG seed.
 SMOKE_S, SMOKE_PERIOD_S, SMOKE_SEED = 2.0, 0.1, 0
+
+_PIECE = re.compile(r"^(.+)__c\d+$")
 
 
 def warnings_of(d) -> dict[str, int]:
@@ -81,16 +113,192 @@ def _free_qpos(m) -> int | None:
     return None
 
 
-def check_b1(m, art: Articulation) -> tuple[CheckResult, list[np.ndarray]]:
-    """B1: hold every servo at the compiled pose for :data:`SETTLE_S`; nothing keeps moving."""
+@dataclass(frozen=True)
+class Held:
+    """One DOF that B1 holds at its home with a position servo (a spherical joint's three).
+
+    Attributes:
+        name: the exported MuJoCo joint (a 1-DOF joint's, or the spherical joint's own).
+        kind: its joint kind (the DOF's; a cylindrical joint's slide or turn).
+        child: the articulation link it moves (its subtree moves with it).
+        jid: the MuJoCo joint id.
+        actuators: its actuator ids (three for a ball).
+        effort: the actuators' force limit (N m or N), the mate's ``effort``.
+    """
+
+    name: str
+    kind: JointKind
+    child: str
+    jid: int
+    actuators: tuple[int, ...]
+    effort: float
+
+    @property
+    def unit(self) -> str:
+        """The unit of its load and effort: ``N`` (a slide) or ``N m``."""
+        return "N" if self.kind.slides else "N m"
+
+
+def held_dofs(m: MjModel, art: Articulation) -> list[Held]:
+    """The position-held DOFs of ``art`` in the MuJoCo model ``m``: every position-driven 1-DOF
+    joint (a cylindrical joint's slide and a limited turn included) and every spherical joint
+    (its three hold servos, as :mod:`procedura_brep.export.mjcf` writes them). Velocity-driven
+    joints (wheels, spinning joints) hold a speed, not a pose, and are left out."""
+    import mujoco
+    out: list[Held] = []
+    for j in art.joints:
+        if j.kind.ball:
+            jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j.name)
+            acts = tuple(mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"{j.name}__{ax}")
+                         for ax in "xyz")
+            if jid >= 0 and all(a >= 0 for a in acts):
+                out.append(Held(j.name, j.kind, j.child, jid, acts, float(j.effort)))
+            continue
+        for dof in j.dofs():
+            if dof.drive != "position":
+                continue
+            jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, dof.name)
+            act = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, dof.name)
+            if jid >= 0 and act >= 0:
+                out.append(Held(dof.name, dof.kind, j.child, jid, (act,), float(dof.effort)))
+    return out
+
+
+def subtree_bodies(m: MjModel, body: int) -> set[int]:
+    """``body`` and every MuJoCo body below it."""
+    out = {int(body)}
+    for b in range(int(body) + 1, m.nbody):  # a body's id is greater than its parent's
+        if int(m.body_parentid[b]) in out:
+            out.add(b)
+    return out
+
+
+def _subtree_geoms(m: MjModel, bodies: set[int]) -> np.ndarray:
+    """The ids of the geoms on ``bodies``."""
+    return np.array([g for g in range(m.ngeom) if int(m.geom_bodyid[g]) in bodies], dtype=int)
+
+
+def _box_corners(m: MjModel, d: MjData, geoms: np.ndarray) -> np.ndarray:
+    """World corners (n*8, 3), m, of the geoms' boxes (``geom_aabb``, in each geom's frame)."""
+    if not len(geoms):
+        return np.zeros((0, 3))
+    signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    aabb = m.geom_aabb[geoms]
+    local = aabb[:, None, :3] + signs[None, :, :] * aabb[:, None, 3:]  # (n, 8, 3)
+    rot = d.geom_xmat[geoms].reshape(-1, 3, 3)
+    world = np.einsum("nij,nkj->nki", rot, local) + d.geom_xpos[geoms][:, None, :]
+    return world.reshape(-1, 3)
+
+
+def _drift(m: MjModel, qpos: np.ndarray, h: Held) -> float:
+    """How far ``h`` is from home (qpos 0 / the identity quaternion): rad, or m for a slide.
+    A ball's is its rotation angle from home (a tilt, a twist or both)."""
+    adr = int(m.jnt_qposadr[h.jid])
+    if h.kind.ball:
+        w = min(1.0, abs(float(qpos[adr])) / max(float(np.linalg.norm(qpos[adr:adr + 4])), 1e-12))
+        return 2.0 * math.acos(w)
+    return float(qpos[adr])
+
+
+def _tip_mm(m: MjModel, settled: np.ndarray, h: Held, home_corners: np.ndarray,
+            geoms: np.ndarray) -> float:
+    """The most any box corner of ``h``'s child subtree moves, mm, when ``h`` alone goes from
+    home to its settled value (every other joint at home, so a drift downstream is not counted
+    against it)."""
+    import mujoco
+    if not len(geoms):
+        return 0.0
+    d = mujoco.MjData(m)
+    d.qpos[:] = m.qpos0
+    adr, n = int(m.jnt_qposadr[h.jid]), (4 if h.kind.ball else 1)
+    d.qpos[adr:adr + n] = settled[adr:adr + n]
+    mujoco.mj_kinematics(m, d)
+    return float(np.linalg.norm(_box_corners(m, d, geoms) - home_corners, axis=1).max()) * 1000.0
+
+
+def _round_up(x: float) -> float:
+    """``x`` rounded up to two significant figures (a suggested effort)."""
+    if x <= 0:
+        return 0.0
+    scale = 10.0 ** (math.floor(math.log10(x)) - 1)
+    return math.ceil(x / scale - 1e-9) * scale
+
+
+def _hold_problem(h: Held, row: dict[str, Any], with_gravity: bool) -> str:
+    """The B1 failure message of one DOF that did not hold its home (``with_gravity``: it moved
+    the way gravity pulls it, so it sags)."""
+    ball, slides = h.kind.ball, h.kind.slides
+    drift = row["drift_mm"] if slides else row["drift_deg"]
+    unit = "mm" if slides else "deg"
+    load = row["gravity_force_N"] if slides else row["gravity_torque_Nm"]
+    what = "force" if slides else "torque"
+    verb = "sags" if with_gravity else "drifts"
+    force = row["actuator_force_N"] if slides else row["actuator_torque_Nm"]
+    # a ball's three servos each hold one component of its load
+    axis = (f" ({row['servo_load_Nm']:.3g} N m of it on one servo axis)"
+            if ball and row["servo_load_Nm"] < 0.99 * load else "")
+    msg = (f"joint {h.name!r} {verb} {drift:.3g} {unit} from home (its far end moves "
+           f"{row['tip_mm']:.3g} mm) under {load:.3g} {h.unit} of gravity {what}{axis}; "
+           f"its effort is {h.effort:.3g} {h.unit}")
+    if row["saturated"]:
+        need = _round_up(EFFORT_MARGIN * (row["servo_load_Nm"] if ball else load))
+        return (msg + f": raise effort to at least ~{need:.3g} {h.unit} or lighten link "
+                      f"{h.child!r} and what it carries")
+    return (msg + f": its servo is not saturated ({abs(force):.3g} of {h.effort:.3g} {h.unit}), "
+                  f"so a contact or a joint limit holds it off home")
+
+
+def check_b1(m: MjModel, art: Articulation) -> tuple[CheckResult, list[np.ndarray]]:
+    """B1: hold every servo at the compiled pose for :data:`SETTLE_S` with gravity; nothing
+    keeps moving, and every position-held joint stays at its home.
+
+    Position servos hold home with an integral term (:data:`HOLD_KI`), so a servo whose effort
+    suffices ends at home and a joint that sags is one whose effort cannot carry its load. Each
+    held DOF (:func:`held_dofs`) is judged on its drift from home (``TOL.hold_drift_deg``, or
+    ``TOL.hold_drift_mm`` for a slide; a ball: its rotation angle from home) and on how far that
+    drift alone moves the far end of its child subtree (``TOL.hold_tip_mm``: the largest
+    displacement of any corner of a subtree geom's box, with every other joint at home). A failure
+    names the joint, the drift, the gravity torque or force it holds at home (``qfrc_bias`` at
+    the compiled pose, zero velocity) and its effort.
+    """
     import mujoco
     d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    gravity = d.qfrc_bias.copy()  # zero velocity: the generalised gravity force at home
+    held = held_dofs(m, art)
+    geoms = {h.name: _subtree_geoms(m, subtree_bodies(m, int(m.jnt_bodyid[h.jid]))) for h in held}
+    home_corners = {h.name: _box_corners(m, d, g) for h, g in zip(held, geoms.values())}
+    acts = np.array([a for h in held for a in h.actuators], dtype=int)
+    # the setpoint may leave the joint's range (a home at the end of the range, loaded into it,
+    # needs a setpoint past that end), by at most the range's width; the force stays limited
+    width = m.actuator_ctrlrange[acts, 1] - m.actuator_ctrlrange[acts, 0]
+    lo, hi = m.actuator_ctrlrange[acts, 0] - width, m.actuator_ctrlrange[acts, 1] + width
+    setpoint = np.zeros(len(acts))  # home is actuator length 0 (joint 0, identity quaternion)
     traj = []
-    steps = int(SETTLE_S / m.opt.timestep)
-    for k in range(steps):
-        mujoco.mj_step(m, d)
-        if k % 50 == 0:
-            traj.append(d.qpos.copy())
+    dt = float(m.opt.timestep)
+    steps = int(SETTLE_S / dt)
+    # each held DOF's largest drift over the judged window, and the pose it had then
+    peak = {h.name: (0.0, m.qpos0.copy()) for h in held}
+    saturated = {h.name: False for h in held}  # at its force limit at some step of the window
+    limited = m.actuator_ctrllimited[acts].copy()
+    m.actuator_ctrllimited[acts] = 0  # MuJoCo would clamp ctrl to the range
+    try:
+        for k in range(steps):
+            if len(acts):
+                setpoint = np.clip(setpoint - dt * HOLD_KI * d.actuator_length[acts], lo, hi)
+                d.ctrl[acts] = setpoint
+            mujoco.mj_step(m, d)
+            if k % 50 == 0:
+                traj.append(d.qpos.copy())
+            if (k + 1) * dt > SETTLE_S - HOLD_WINDOW_S:
+                for h in held:
+                    q = _drift(m, d.qpos, h)
+                    if abs(q) > abs(peak[h.name][0]):
+                        peak[h.name] = (q, d.qpos.copy())
+                    saturated[h.name] |= bool(np.any(np.abs(d.actuator_force[list(h.actuators)])
+                                                     >= SATURATION * h.effort))
+    finally:
+        m.actuator_ctrllimited[acts] = limited
     free = _free_dof(m)
     jid, _ = _ids(m, art)
     balls = {j.name for j in art.joints if j.kind.ball}
@@ -101,6 +309,40 @@ def check_b1(m, art: Articulation) -> tuple[CheckResult, list[np.ndarray]]:
     rspeed = float(np.linalg.norm(d.qvel[free:free + 3])) if free is not None else 0.0
     warns = warnings_of(d)
     finite = bool(np.all(np.isfinite(d.qpos)))
+    rows: dict[str, dict[str, Any]] = {}
+    holds: list[str] = []
+    worst_deg = worst_mm = worst_tip = 0.0
+    for h in held if finite else ():  # a state that blew up is reported as such, not per joint
+        dof = int(m.jnt_dofadr[h.jid])
+        n = 3 if h.kind.ball else 1
+        load_vec = gravity[dof:dof + n]
+        force = d.actuator_force[list(h.actuators)]
+        drift, pose = peak[h.name]
+        tip = _tip_mm(m, pose, h, home_corners[h.name], geoms[h.name])
+        if h.kind.ball:
+            load, servo_load = float(np.linalg.norm(load_vec)), float(np.abs(load_vec).max())
+        else:
+            load = servo_load = float(abs(load_vec[0]))
+        # qfrc_bias > 0: gravity pulls the joint towards negative values
+        with_gravity = bool(load > 0 and (h.kind.ball or drift * float(load_vec[0]) < 0))
+        if h.kind.slides:
+            row = {"drift_mm": abs(drift) * 1000.0, "gravity_force_N": load, "effort_N": h.effort,
+                   "actuator_force_N": float(force[0])}
+            worst_mm = max(worst_mm, row["drift_mm"])
+            bad = row["drift_mm"] > TOL.hold_drift_mm
+        else:
+            row = {"drift_deg": math.degrees(abs(drift)), "gravity_torque_Nm": load,
+                   "effort_Nm": h.effort,
+                   "actuator_torque_Nm": float(np.abs(force).max() if h.kind.ball else force[0])}
+            if h.kind.ball:
+                row["servo_load_Nm"] = servo_load
+            worst_deg = max(worst_deg, row["drift_deg"])
+            bad = row["drift_deg"] > TOL.hold_drift_deg
+        row.update(tip_mm=tip, saturated=saturated[h.name])
+        worst_tip = max(worst_tip, tip)
+        rows[h.name] = row
+        if bad or tip > TOL.hold_tip_mm:
+            holds.append(_hold_problem(h, row, with_gravity))
     problems = []
     if not finite:
         problems.append("state became NaN/inf")
@@ -110,10 +352,17 @@ def check_b1(m, art: Articulation) -> tuple[CheckResult, list[np.ndarray]]:
         problems.append(f"root link {art.root.name!r} still moving at {rspeed:.3g} m/s")
     if warns:
         problems.append(f"MuJoCo warnings {warns}")
-    measured = {"max_joint_speed": jspeed, "root_speed_mps": rspeed, "warnings": sum(warns.values())}
-    limits = {"max_joint_speed": TOL.settle_joint_speed, "root_speed_mps": SETTLE_ROOT_SPEED, "warnings": 0}
+    problems.extend(holds)
+    measured = {"max_joint_speed": jspeed, "root_speed_mps": rspeed, "warnings": sum(warns.values()),
+                "max_drift_deg": worst_deg, "max_drift_mm": worst_mm, "max_tip_mm": worst_tip,
+                "joints": rows}
+    limits = {"max_joint_speed": TOL.settle_joint_speed, "root_speed_mps": SETTLE_ROOT_SPEED,
+              "warnings": 0, "max_drift_deg": TOL.hold_drift_deg, "max_drift_mm": TOL.hold_drift_mm,
+              "max_tip_mm": TOL.hold_tip_mm}
+    ok = (f"settled within {SETTLE_S} s; {len(held)} held joints within {TOL.hold_drift_deg} deg / "
+          f"{TOL.hold_drift_mm} mm of home (far ends within {TOL.hold_tip_mm} mm)")
     return CheckResult("B1", "dynamic settle", not problems, measured, limits,
-                       "; ".join(problems) or f"settled within {SETTLE_S} s"), traj
+                       "; ".join(problems) or ok), traj
 
 
 def _separation(m, d, jid: int) -> float:
@@ -132,21 +381,142 @@ def _rot(q: np.ndarray) -> np.ndarray:
     return r.reshape(3, 3)
 
 
-def sweep_joint(m, art: Articulation, name: str) -> dict:
+@dataclass(frozen=True)
+class Stop:
+    """Where a swept joint was at the end of one leg of its B2 sweep (the end of its hold, or of
+    a spin), and what held it there.
+
+    Attributes:
+        target: the commanded end of the leg (rad or m; a spin: the commanded turn).
+        distance: how far the leg commanded the joint to go (rad or m).
+        ramp_s: the time the leg's ramp gave that travel (a spin: its length).
+        reached: the farthest the joint got towards ``target`` during the leg.
+        speed: its speed towards ``target`` at the end (rad/s or m/s).
+        force: its actuator force then (N m or N).
+        load: the bias and constraint force on its DOF then (N m or N; gravity is off in B2).
+        inertia: its joint-space inertia then (kg m^2 or kg).
+        contacts: ``(part, link, other part, other link)`` of every contact between its child
+            subtree and the rest, the moving side first.
+    """
+
+    target: float
+    distance: float
+    ramp_s: float
+    reached: float
+    speed: float
+    force: float
+    load: float
+    inertia: float
+    contacts: tuple[tuple[str, str, str, str], ...]
+
+
+def _part_of(m: MjModel, geom: int) -> str:
+    """The part a geom belongs to (a collision piece ``<part>__c<k>`` or the visual ``<part>``)."""
+    name = m.geom(geom).name
+    hit = _PIECE.match(name)
+    return hit.group(1) if hit else name
+
+
+def contact_pairs(m: MjModel, d: MjData, bodies: set[int]) -> tuple[tuple[str, str, str, str], ...]:
+    """``(part, link, other part, other link)`` of every current contact between a body in
+    ``bodies`` and one outside it (a link is a MuJoCo body), each pair once."""
+    out: list[tuple[str, str, str, str]] = []
+    for c in d.contact[: d.ncon]:
+        g1, g2 = int(c.geom1), int(c.geom2)
+        b1, b2 = int(m.geom_bodyid[g1]), int(m.geom_bodyid[g2])
+        if (b1 in bodies) == (b2 in bodies):
+            continue
+        if b1 not in bodies:
+            g1, g2, b1, b2 = g2, g1, b2, b1
+        pair = (_part_of(m, g1), m.body(b1).name, _part_of(m, g2), m.body(b2).name)
+        if pair not in out:
+            out.append(pair)
+    return tuple(out)
+
+
+def _stop(m: MjModel, d: MjData, dof: int, act: int, bodies: set[int], target: float,
+          distance: float, ramp_s: float, reached: float, sign: float) -> Stop:
+    """The :class:`Stop` of the state ``d`` (``sign``: +1 when the leg moves the joint up)."""
+    import mujoco
+    full = np.zeros((m.nv, m.nv))
+    mujoco.mj_fullM(m, d, full)
+    inertia = float(full[dof, dof])
+    load = float(d.qfrc_bias[dof] - d.qfrc_passive[dof] - d.qfrc_constraint[dof])
+    return Stop(target, distance, ramp_s, reached, sign * float(d.qvel[dof]),
+                float(d.actuator_force[act]), load, inertia, contact_pairs(m, d, bodies))
+
+
+def reach_why(dof: JointDof, stop: Stop) -> tuple[str, str]:
+    """``(cause, reason)`` of one leg of a sweep that fell short, in this order: ``collision``
+    (the contact pairs and where the joint stopped), ``effort`` (its actuator saturated: the
+    force limit, the load, and the time that effort needs to move the joint's inertia that far
+    against the time the sweep gave), ``ramp`` (still on its way when the leg ended: the time
+    its ``velocity`` limit needs for the travel against the ramp's), or ``unknown`` (none of
+    these: the numbers). A ramp faster than the velocity limit is named in every reason (a spin
+    has no ramp: it is commanded at half its velocity limit)."""
+    kind = dof.kind
+    unit = "N" if kind.slides else "N m"
+    vunit = "m/s" if kind.slides else "rad/s"
+    spin = dof.drive == "velocity"
+    moving = stop.speed > MOVING_SPEED
+    if spin:
+        got = f"it turned {kind.label(stop.reached)} of the {kind.label(stop.target)} commanded"
+    else:
+        got = f"it got to {kind.label(stop.reached)} of {kind.label(stop.target)}"
+    where = (f"{got}, still moving at {stop.speed:.3g} {vunit} when the hold ended"
+             if moving and not spin else got)
+    velocity_time = stop.distance / dof.velocity if dof.velocity > 0 else math.inf
+    too_fast = (f"{kind.label(stop.distance)} at its velocity limit {dof.velocity:.3g} {vunit} "
+                f"takes {velocity_time:.3g} s, the ramp gave {stop.ramp_s:.3g} s")
+    note = "" if spin or velocity_time <= stop.ramp_s else f" (also, {too_fast})"
+    if stop.contacts:
+        pairs = ", ".join(f"{p!r} (link {lk!r}) against {q!r} (link {ok!r})"
+                          for p, lk, q, ok in stop.contacts[:MAX_PAIRS])
+        more = len(stop.contacts) - MAX_PAIRS
+        return "collision", (f"a collision: {got}, with {pairs}"
+                             f"{f' and {more} more pairs' if more > 0 else ''} in contact{note}")
+    if abs(stop.force) >= SATURATION * dof.effort:
+        if spin:  # from rest to the commanded speed at full effort
+            need = stop.inertia * (stop.target / stop.ramp_s) / dof.effort
+            what = f"spinning its {stop.inertia:.3g} kg m^2 up to speed"
+        else:  # at full effort, accelerating half way and braking the rest
+            need = 2.0 * math.sqrt(stop.distance * stop.inertia / dof.effort)
+            what = (f"moving its {stop.inertia:.3g} {'kg' if kind.slides else 'kg m^2'} over "
+                    f"{kind.label(stop.distance)}")
+        load = (f" against {abs(stop.load):.3g} {unit} of bias and constraint force"
+                if abs(stop.load) > 0.01 * dof.effort else "")
+        return "effort", (f"too little effort: {where}; its actuator is saturated at its effort "
+                          f"{dof.effort:.3g} {unit}{load}; {what} takes at least {need:.3g} s at "
+                          f"that effort, the {'spin' if spin else 'ramp'} gave {stop.ramp_s:.3g} s"
+                          f"{'' if spin else f' (and the hold {SWEEP_HOLD_S:.3g} s)'}{note}")
+    if moving and not spin:
+        return "ramp", f"the ramp was too short: {where}; {too_fast}"
+    return "unknown", (f"{where} with no contact and its actuator below its effort "
+                       f"({abs(stop.force):.3g} of {dof.effort:.3g} {unit}){note}")
+
+
+def sweep_joint(m: MjModel, art: Articulation, name: str) -> dict[str, Any]:
     """Drive one 1-DOF joint (a joint's name, or a cylindrical joint's ``__slide`` / ``__turn``)
     through its range (others held at 0). Returns reach data and the trajectory; gravity should
-    be off in ``m`` (the sweep tests range, B1 tests gravity)."""
+    be off in ``m`` (the sweep tests range, B1 tests gravity).
+
+    When the reach is under ``TOL.sweep_reach``, ``why`` says why (:func:`reach_why` of each leg
+    that fell short: to the lower limit, to the upper limit, or the spin) and ``cause`` is the
+    first leg's cause; both are None otherwise. ``ramp_s`` is the time the ramp gives the full
+    range and ``ramp_needed_s`` the time the joint's ``velocity`` limit needs for it (None for a
+    spin)."""
     import mujoco
     j = _dof(art, name)
     jid, aid = _ids(m, art)
     i, a = jid[name], aid[name]
-    qadr = int(m.jnt_qposadr[i])
+    qadr, dof = int(m.jnt_qposadr[i]), int(m.jnt_dofadr[i])
+    bodies = subtree_bodies(m, int(m.jnt_bodyid[i]))
     d = mujoco.MjData(m)
     dt = m.opt.timestep
     traj, qs, sep = [], [], 0.0
     if j.drive == "velocity":  # a speed servo (the articulation's drive): spin it
         v = min(SPIN_FRACTION * j.velocity, 2 * math.pi)
-        steps = int(1.0 / dt)
+        steps = int(SPIN_S / dt)
         for k in range(steps):
             d.ctrl[a] = v
             mujoco.mj_step(m, d)
@@ -154,27 +524,52 @@ def sweep_joint(m, art: Articulation, name: str) -> dict:
             if k % 25 == 0:
                 traj.append(d.qpos.copy())
         turned = float(d.qpos[qadr])
-        return {"reach": turned / (v * steps * dt), "qmin": 0.0, "qmax": turned,
-                "separation_m": sep, "traj": traj, "warnings": warnings_of(d)}
+        commanded = v * steps * dt
+        out = {"reach": turned / commanded, "qmin": 0.0, "qmax": turned, "separation_m": sep,
+               "traj": traj, "warnings": warnings_of(d), "ramp_s": steps * dt,
+               "ramp_needed_s": None, "why": None, "cause": None}
+        if out["reach"] < TOL.sweep_reach:
+            stop = _stop(m, d, dof, a, bodies, commanded, commanded, steps * dt, turned, 1.0)
+            out["cause"], out["why"] = reach_why(j, stop)
+        return out
     lo, hi = float(j.lower), float(j.upper)
-    plan = [(0.0, lo, SWEEP_RAMP_S), (lo, lo, SWEEP_HOLD_S), (lo, hi, 2 * SWEEP_RAMP_S),
-            (hi, hi, SWEEP_HOLD_S)]
+    legs = [[(0.0, lo, SWEEP_RAMP_S), (lo, lo, SWEEP_HOLD_S)],
+            [(lo, hi, 2 * SWEEP_RAMP_S), (hi, hi, SWEEP_HOLD_S)]]
+    stops: list[Stop] = []
     k = 0
-    for start, end, dur in plan:
-        n = max(1, int(dur / dt))
-        for s in range(n):
-            d.ctrl[a] = start + (end - start) * (s + 1) / n
-            mujoco.mj_step(m, d)
-            q = float(d.qpos[qadr])
-            qs.append(q)
-            sep = max(sep, _separation(m, d, i))
-            if k % 25 == 0:
-                traj.append(d.qpos.copy())
-            k += 1
+    for leg, sign in zip(legs, (-1.0, 1.0)):
+        far = -math.inf
+        for start, end, dur in leg:
+            n = max(1, int(dur / dt))
+            for s in range(n):
+                d.ctrl[a] = start + (end - start) * (s + 1) / n
+                mujoco.mj_step(m, d)
+                q = float(d.qpos[qadr])
+                qs.append(q)
+                far = max(far, sign * q)
+                sep = max(sep, _separation(m, d, i))
+                if k % 25 == 0:
+                    traj.append(d.qpos.copy())
+                k += 1
+        (start, end, dur), _ = leg
+        stops.append(_stop(m, d, dof, a, bodies, end, abs(end - start), dur, sign * far, sign))
     qmin, qmax = min(qs), max(qs)
     span = hi - lo
-    return {"reach": (qmax - qmin) / span if span > 0 else 1.0, "qmin": qmin, "qmax": qmax,
-            "separation_m": sep, "traj": traj, "warnings": warnings_of(d)}
+    reach = (qmax - qmin) / span if span > 0 else 1.0
+    out = {"reach": reach, "qmin": qmin, "qmax": qmax, "separation_m": sep, "traj": traj,
+           "warnings": warnings_of(d), "ramp_s": 2 * SWEEP_RAMP_S,
+           "ramp_needed_s": span / j.velocity if j.velocity > 0 else None, "why": None,
+           "cause": None}
+    if reach < TOL.sweep_reach:
+        # the legs that fell short: each by more than half the allowed shortfall, else the worse
+        short = [max(0.0, qmin - lo), max(0.0, hi - qmax)]
+        legs_short = [x for x, gap in zip(stops, short) if gap > 0.5 * (1 - TOL.sweep_reach) * span]
+        legs_short = legs_short or [stops[int(np.argmax(short))]]
+        whys = [reach_why(j, x) for x in legs_short]
+        out["cause"] = whys[0][0]
+        out["why"] = "; ".join(f"towards {j.kind.label(x.target)}: {w}"
+                               for x, (_, w) in zip(legs_short, whys))
+    return out
 
 
 def check_b4(m, art: Articulation, wheels: list[str], floor_z: float
