@@ -233,3 +233,27 @@ def test_a_synthesised_reference_grounds_every_stage_and_replays_offline(tmp_pat
         assert digest in shas, role
     assert ref_mod.load(out).png == png  # what --resume grounds the rest of the run on
 
+
+
+def test_a_part_still_failing_the_gates_after_its_attempts_is_skipped_not_committed(tmp_path):
+    """Issue 23.4: a part whose last attempt still has a finding that would fail the run (here
+    the arm driven 10 mm into the post, three times) is never committed "with a warning" only
+    for the whole run to fail on the same finding at the end: it is skipped, with the finding."""
+    from procedura_brep.testing.tapes import part_replies, plan_from_program
+    src = LAMP_PROGRAM.read_text()
+    replies = part_replies(src)
+    bad = replies[2].replace(
+        "    return Box(90, 14, 10, align=(Align.MIN, Align.CENTER, Align.CENTER))",
+        "    return Pos(-40, 0, 0) * Box(130, 14, 10, align=(Align.MIN, Align.CENTER, Align.CENTER))"
+        " + Pos(0, -12, 0) * Box(20, 12, 10)")
+    assert bad != replies[2]
+    plan = "```json\n" + json.dumps(plan_from_program(src)) + "\n```"
+    tape = _tape(tmp_path, [("plan", plan)] + [("build", r) for r in replies[:2]] + [("build", bad)] * 3)
+    out = tmp_path / "skip"
+    res = generate_staged("a lamp", out, model=f"replay:{tape}",
+                          options=StagedOptions(review=False, refine=False, simulate=False))
+    assert [c.name for c in res.state.committed] == ["base", "post"]
+    (skip,) = res.state.skipped
+    assert skip["name"] == "arm" and "still fails the gates" in skip["reason"]
+    assert "arm and post interpenetrate" in skip["reason"]
+    assert res.status == "ok", res.message  # the rest ships

@@ -26,6 +26,7 @@ from typing import Any
 
 from .. import interrupt
 from ..errors import ProceduraError
+from ..findings import blocks
 from ..llm import Client, Image, Message, Request, Settings
 from ..llm.errors import BudgetExceeded
 from ..paths import write_atomic
@@ -294,6 +295,11 @@ class StagedRun:
                 + feedback + note, *retry_views)]
         if candidate is not None:
             result, verdict = candidate
+            failing = [f for f in verdict.errors if blocks(f)]
+            if failing:  # it would fail the whole run on the same finding: never committed
+                self._skip(part.name, f"after {self.options.attempts} attempts it still fails the "
+                           f"gates: " + "; ".join(f.message for f in failing[:3]))
+                return
             warning = "; ".join(f.message for f in verdict.errors[:3])
             self._commit(result, verdict, overhead=overhead, warning=warning)
             self.progress("build", f"part {k}/{len(plan.parts)} {part.name}: committed with a warning "
