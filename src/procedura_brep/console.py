@@ -47,7 +47,10 @@ def print_battery(data: dict[str, Any]) -> None:
     for col in ("check", "name", "verdict", "measured", "limits", "message"):
         t.add_column(col, overflow="fold")
     for c in data["checks"]:
-        verdict = "[yellow]skip[/]" if c.get("skipped") else ("[green]pass[/]" if c["passed"] else "[red]FAIL[/]")
+        verdict = {"skip": "[yellow]skip[/]", "fail": "[red]FAIL[/]",
+                   "not verified": "[yellow]not verified[/]"}.get(c.get("status", ""), "[green]pass[/]")
+        if "status" not in c:  # a report written before checks had a status
+            verdict = "[yellow]skip[/]" if c.get("skipped") else ("[green]pass[/]" if c["passed"] else "[red]FAIL[/]")
         meas = ", ".join(f"{_cell(k)}={_cell(v)}" for k, v in (c.get("measured") or {}).items())
         lim = ", ".join(f"{_cell(k)}={_cell(v)}" for k, v in (c.get("limits") or {}).items())
         t.add_row(_cell(c["id"]), _cell(c.get("name", "")), verdict, meas, lim,
@@ -56,7 +59,13 @@ def print_battery(data: dict[str, Any]) -> None:
     con.print(t)
     for n in data.get("notes", []):
         con.print(f"note: {markup_safe(n)}")
-    con.print("[green]all checks pass[/]" if data["passed"] else "[red]a check failed[/]")
+    if not data["passed"]:
+        con.print("[red]a check failed[/]")
+    elif data.get("verified", True):
+        con.print("[green]all checks pass[/]")
+    else:
+        con.print("[yellow]no check failed, but not everything was verified[/] (see the checks "
+                  "marked not verified)")
 
 
 def print_check(data: dict[str, Any]) -> None:

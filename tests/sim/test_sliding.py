@@ -81,3 +81,15 @@ def test_faces_along_the_motion_neither_lead_nor_oppose():
     rod = sides(Rot(0, 90, 0) * Cylinder(5, 20))  # a rod along X: its side slides in itself
     assert sorted(rod) == sorted([(False, False), (True, False), (False, True)])
     assert sides(Sphere(5)) == [(True, True)]  # curved: assumed to do both (conservative)
+
+
+def test_b2_names_the_stop_and_where_the_parts_meet(axes, tmp_path):
+    from procedura_brep.sim import run_battery
+
+    report = run_battery(axes[True], out_dir=tmp_path, checks=["B2"], frames=False)
+    b2 = report.check("B2")
+    assert b2.status == "fail" and report.verified
+    assert "drives 'block_lf'" in b2.message and "into 'stop'" in b2.message
+    assert "they meet at 39" in b2.message and "mm^3" in b2.message
+    clean = run_battery(axes[False], out_dir=tmp_path / "clean", checks=["B2"], frames=False)
+    assert clean.check("B2").status == "pass", clean.check("B2").message

@@ -20,6 +20,9 @@ class CheckResult:
         skipped: True when the check does not apply (e.g. B4 without wheels).
         frames: rendered frames of the failing phase (paths relative to the output dir).
         seconds: wall time of the check.
+        unverified: what the check could not decide ("" when it decided everything): a
+            verdict it could not reach is **not verified**, neither a pass nor a failure
+            (``passed`` then speaks only for what was decided).
     """
 
     id: str
@@ -31,9 +34,19 @@ class CheckResult:
     skipped: bool = False
     frames: list[str] = field(default_factory=list)
     seconds: float = 0.0
+    unverified: str = ""
+
+    @property
+    def status(self) -> str:
+        """``"skip"``, ``"fail"``, ``"not verified"`` or ``"pass"``."""
+        if self.skipped:
+            return "skip"
+        if not self.passed:
+            return "fail"
+        return "not verified" if self.unverified else "pass"
 
     def as_dict(self) -> dict[str, Any]:
-        return dict(self.__dict__)
+        return {**self.__dict__, "status": self.status}
 
 
 @dataclass
@@ -48,6 +61,11 @@ class BatteryReport:
     def passed(self) -> bool:
         return all(c.passed for c in self.checks)
 
+    @property
+    def verified(self) -> bool:
+        """Every check decided everything it checks (see :attr:`CheckResult.unverified`)."""
+        return not any(c.unverified for c in self.checks)
+
     def check(self, cid: str) -> CheckResult:
         for c in self.checks:
             if c.id == cid:
@@ -55,5 +73,6 @@ class BatteryReport:
         raise KeyError(f"no check {cid!r}; ran: {', '.join(c.id for c in self.checks)}")
 
     def as_dict(self) -> dict[str, Any]:
-        return {"passed": self.passed, "checks": [c.as_dict() for c in self.checks],
+        return {"passed": self.passed, "verified": self.verified,
+                "checks": [c.as_dict() for c in self.checks],
                 "timings": self.timings, "notes": self.notes}
