@@ -69,3 +69,18 @@ def test_part_slice_names_mates_children_and_what_is_left():
     assert "wheel_0 (revolute)" in root and "mast (peg_socket)" in root
     last = part_slice(PLAN, PLAN.parts[-1])
     assert "- to chassis: peg_socket, nominal mast_d" in last and "Still to come" not in last
+
+
+def test_views_are_named_with_the_side_each_camera_looks_from():
+    """Issue 23.6 / 26: the model and the critic are told which view each image is, and that
+    "front" looks from -Y."""
+    from procedura_brep.agent.refine import _named
+
+    def png() -> bytes:
+        buf = io.BytesIO()
+        PILImage.new("RGB", (4, 4)).save(buf, format="PNG")
+        return buf.getvalue()
+
+    views = [Image(png(), "front"), Image(png(), "iso_se")]
+    assert _named(views) == ", in order: front (from -Y, ortho), iso_se (from +X-Y+Z, ortho)"
+    assert _named([Image(png(), "front"), Image(png(), "")]) == ""  # an unnamed image: no claim

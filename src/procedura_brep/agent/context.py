@@ -81,9 +81,15 @@ def build_request(*, step: int, system: str, prompt: str, plan: Plan, header: st
         names = [img.name for img in views]
         tail += ("\n\nRenders of the build so far, one colour per part" +
                  (f" ({legend})" if legend else "") + "." +
-                 (f" Views, in order: {', '.join(names)}." if all(names) else ""))
+                 (f" Views, in order: {captions(names)}." if all(names) else ""))
     msgs.append(Message.user(tail, *views))
     return Request("build", step, system, (*msgs, *history), settings or Settings(max_tokens=8000))
+
+
+def captions(names: Sequence[str]) -> str:
+    """The view names with the side each camera looks from (``front (from -Y, ortho)``)."""
+    from ..render.views import caption
+    return ", ".join(caption(n) for n in names)
 
 
 def serialise(request: Request) -> str:

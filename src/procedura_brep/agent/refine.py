@@ -25,6 +25,7 @@ from .actions import (
     Step,
     parse_action,
 )
+from .context import captions
 from .critic import Critique, CritiqueError, parse_critique
 from .prompts import template
 from .tools import Tools
@@ -107,6 +108,12 @@ def refine(host: Host, source: str, *, intro: str, max_edits: int, max_actions: 
     return session.source, report
 
 
+def _named(views: list[Any]) -> str:
+    """``", in order: front (from -Y, ortho), ..."`` for named images ("" when any is unnamed)."""
+    names = [getattr(v, "name", "") for v in views]
+    return f", in order: {captions(names)}" if names and all(names) else ""
+
+
 class RefineBench:
     """The refine session's workbench over a host run: real renders, critic calls, gated edits."""
 
@@ -144,7 +151,8 @@ class RefineBench:
         task = self.task or f"Object: {self.host.prompt}"
         msgs = [Message.user(f"{task}\nColour legend: {self.last_legend}\n\n"
                              f"The program:\n```python\n{source}```\n\nEarlier reviews:\n{earlier}\n\n"
-                             "The views of the current build follow.", *self.host._refs(), *views)]
+                             "The views of the current build follow" + _named(views) + ".",
+                             *self.host._refs(), *views)]
         crit = None
         for _ in range(2):
             text = self.host._call(self.critic_role, self.critic_system, msgs, max_tokens=2000)

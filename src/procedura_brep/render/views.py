@@ -79,6 +79,18 @@ DEFAULT_VIEWS: tuple[str, ...] = ("iso_se", "iso_sw", "iso_ne", "iso_nw", "front
 """The 12 views the build loop sends to the model by default."""
 
 
+def caption(name: str) -> str:
+    """``"front (from -Y)"``: a view's name and the world side its camera looks from (every
+    axis the camera direction leans along by more than 0.3), so a model or a person reading
+    the images knows which way each looks; an unknown name is returned as it is."""
+    v = VIEWS.get(name)
+    if v is None:
+        return name
+    d = v.direction
+    side = "".join(("+" if x > 0 else "-") + "XYZ"[k] for k, x in enumerate(d) if abs(x) > 0.3)
+    return f"{name} (from {side}, {v.projection})"
+
+
 def parse_views(views: str | list[str] | tuple[str, ...] | None) -> list[str]:
     """Normalise ``"iso_ne,front"`` or a list to catalog names (1..20, no duplicates, in order).
 
