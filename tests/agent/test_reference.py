@@ -47,3 +47,15 @@ def test_reference_states_the_gate_limits_and_densities():
     assert "coincident faces are contact" in ref
     assert f"thicker than {TOL.penetration_slack_mm:g} mm fails" in ref
     assert f"at most {TOL.sim_penetration_mm:g} mm" in ref
+
+
+def test_the_mate_docstring_names_every_mate_type():
+    """The request shows mate()'s docstring: it named every type but `cylindrical` (issue 23.6)."""
+    import inspect
+
+    from procedura_brep.mates import TYPES
+    from procedura_brep.program import api
+
+    doc = inspect.getdoc(api.mate) or ""
+    missing = [name for name in TYPES if f"``{name}``" not in doc]
+    assert not missing, missing

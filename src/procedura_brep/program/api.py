@@ -197,13 +197,14 @@ def mate(child: str, parent: str, type: str, *, nominal: str, fit: str | None = 
         parent: ``"part.frame"`` of a part declared earlier.
         type: static ``bolt_pattern``, ``peg_socket``, ``seat_face``, ``flange``, ``tab_slot``,
             ``press_fit``, ``lip_rabbet``, ``snap_tab``, ``key``; kinematic ``revolute``,
-            ``prismatic``, ``spherical``.
+            ``prismatic``, ``spherical``, ``cylindrical`` (slide plus turn on one axis).
         nominal: the NAME of the param holding the shared size d (a string such as
             ``"pin_d"``), never a number.
         fit: ``clearance`` | ``location`` | ``press`` | ``snap`` (default depends on the type).
         name: the mate's stable id (default ``<child part>_<child frame>``).
         **options: type-specific: ``count``, ``pcd``, ``depth``, ``limits=(lo, hi)``, ``home``,
-            ``cone``, ``effort``, ``velocity``, ``features=False``, ``male="parent"`` (the male
+            ``cone``, ``angle_limits``, ``effort``, ``velocity``, ``features=False``,
+            ``male="parent"`` (the male
             half on the parent: a pulley on a shaft, so the shaft is not cut) ...
 
     Example::
