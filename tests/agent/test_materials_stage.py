@@ -57,6 +57,10 @@ def test_the_critic_sees_a_pbr_render_with_the_legend_and_corrects_the_post(run)
     _, out, report, _ = run
     critic = report["materials"]["steps"][1]
     assert critic["step"] == "critic" and critic["ok"] and critic["changes"] == {"post": "chrome"}
+    # the progress line counts what was applied: the reassignment and the new library entry
+    line = next(x for x in run[3] if "critic:" in x)
+    assert f"1 part(s) reassigned, {len(critic['library_changes'])} material(s) revised" in line
+    assert critic["library_changes"] == ["chrome"]
     calls = [json.loads(x) for x in (out / "transcript.jsonl").read_text().splitlines()]
     req = next(c for c in calls if c["role"] == "material_critic")["request"]
     text = req["messages"][0]["text"]

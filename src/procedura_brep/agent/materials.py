@@ -254,7 +254,10 @@ def _critic_step(bench: MaterialsBench, size: int) -> None:
     else:
         step["reason"] = f"refused: {why}"
     bench.steps.append(step)
-    host.progress(STAGE, f"critic: {len(changes)} change(s)" + ("" if ok else f" (refused: {why})"))
+    revised = [e.name for e in parsed.library if e not in current]
+    step["library_changes"] = revised
+    host.progress(STAGE, f"critic: {len(changes)} part(s) reassigned, {len(revised)} material(s) "
+                  f"revised" + ("" if ok else f" (refused: {why})"))
 
 
 def _subparts_step(bench: MaterialsBench, size: int) -> None:
