@@ -257,3 +257,6 @@ def test_a_part_still_failing_the_gates_after_its_attempts_is_skipped_not_commit
     assert skip["name"] == "arm" and "still fails the gates" in skip["reason"]
     assert "arm and post interpenetrate" in skip["reason"]
     assert res.status == "ok", res.message  # the rest ships
+    # the feedback points into the reply's own blocks, not into the spliced program
+    feedback = (out / "history" / "003-arm.attempt-1.txt").read_text()
+    assert "(line 1 of your body block)" in feedback, feedback

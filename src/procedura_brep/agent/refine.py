@@ -8,6 +8,7 @@ edits restricted to the parts it names or the critic localises).
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -48,9 +49,12 @@ class Host(Protocol):
     def progress(self, stage: str, text: str) -> None: ...
 
 
-def findings_text(findings: list[Finding], limit: int = 12) -> str:
-    """Findings as model feedback: one ``- message (line N)`` row each, capped."""
-    rows = [f"- {f.message}" + (f" (line {f.line})" if f.line else "") for f in findings[:limit]]
+def findings_text(findings: list[Finding], limit: int = 12,
+                  where: Callable[[int], str] | None = None) -> str:
+    """Findings as model feedback: one ``- message (line N)`` row each, capped; ``where``
+    words a program line (e.g. as a line of the reply's own block)."""
+    rows = [f"- {f.message}" + (f" ({where(f.line) if where else f'line {f.line}'})" if f.line else "")
+            for f in findings[:limit]]
     if len(findings) > limit:
         rows.append(f"- ... and {len(findings) - limit} more")
     return "\n".join(rows) or "- (no details)"

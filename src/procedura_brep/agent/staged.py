@@ -329,9 +329,13 @@ class StagedRun:
             return (f"- the body defines part {result.part!r}; this call writes part {name!r}",
                     None, None)
         verdict = self.tools.gate_part(result.source, name, baseline=self.state.baseline, name=self.name)
+
+        def where(line: int) -> str:  # a line of the reply's own block, not of the spliced program
+            at = result.reply_line(line)
+            return f"line {at[1]} of your {at[0]} block" if at else f"program line {line}"
         if not verdict.compiled:
-            return findings_text(verdict.errors), verdict, result
-        return (findings_text(verdict.errors) if verdict.errors else ""), verdict, result
+            return findings_text(verdict.errors, where=where), verdict, result
+        return (findings_text(verdict.errors, where=where) if verdict.errors else ""), verdict, result
 
     def _commit(self, result: Any, verdict: PartVerdict, *, overhead: float, warning: str = "") -> None:
         t0 = time.perf_counter()
