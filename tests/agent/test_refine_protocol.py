@@ -142,3 +142,15 @@ def test_critique_parsing():
         parse_critique("SUMMARY: s\nISSUES:\n- [HIGH] hull: sunk", parts={"body"})
     with pytest.raises(CritiqueError, match="could not read: - the wheel floats"):
         parse_critique("SUMMARY: s\nISSUES:\n- the wheel floats")
+
+
+def test_an_applied_edit_says_which_helpers_the_splice_renamed():
+    """Issue 23.6: a shared helper renamed on edit (claw_jaw -> claw_jaw_2) was reported only as
+    "edit applied"; the fixer must learn the new name."""
+    bench = Bench([HIGH])
+    bench.last_renames = {"claw_jaw": "claw_jaw_2"}
+    s = RefineSession(bench, "p0")
+    act(s, "render", views=["iso_ne"])
+    act(s, "diagnose")
+    assert act(s, "edit_part", part="wheel", reply="x").ok
+    assert "claw_jaw -> claw_jaw_2" in s.steps[-1].observation

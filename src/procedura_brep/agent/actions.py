@@ -232,8 +232,12 @@ class RefineSession:
             return self._log(name, False, f"edit refused: {exc}")
         self._changed(new)
         self.edits += 1
-        return self._log(name, True, f"edit applied ({self.edits}/{self.max_edits} edits); compile, "
-                                     "render and diagnose to check it")
+        renames = getattr(self.bench, "last_renames", {}) if name == "edit_part" else {}
+        renamed = ("; helper(s) renamed because the program already has a different helper of "
+                   "that name: " + ", ".join(f"{a} -> {b}" for a, b in renames.items()) +
+                   " (the part now calls the new name)") if renames else ""
+        return self._log(name, True, f"edit applied ({self.edits}/{self.max_edits} edits){renamed}; "
+                                     "compile, render and diagnose to check it")
 
     def _do_edit_part(self, args: dict[str, Any]) -> Step:
         return self._edit("edit_part", lambda: self.bench.edit_part(self.source, args["part"], args["reply"]))

@@ -131,6 +131,8 @@ class RefineBench:
         self.critic_role = critic_role
         self.last_images: list[Image] = []
         self.last_legend = ""
+        #: Helper renames the last applied edit_part made (old -> new), for its message.
+        self.last_renames: dict[str, str] = {}
         self._models: dict[str, CompiledModel] = {}
         self._outcomes: dict[str, CompileOutcome] = {}
 
@@ -190,6 +192,7 @@ class RefineBench:
             raise EditRefused(findings_text(verdict.errors, 6).replace("\n", " "))
         if verdict.model is not None:
             self._models = {result.source: verdict.model}
+        self.last_renames = dict(result.renames)
         return result.source
 
     def set_param(self, source: str, name: str, value: float) -> str:
