@@ -48,6 +48,8 @@ class Finding:
         limit: the limit it was compared with, if any.
         severity: ``"error"`` fails the build (:data:`BLOCKING`); ``"warning"`` and ``"info"``
             are reported only.
+        other: the second part of a finding about a pair (an interference, a mate's
+            penetration), so a close-up of the two can go with it.
     """
 
     code: str
@@ -58,6 +60,7 @@ class Finding:
     value: float | None = None
     limit: float | None = None
     severity: Severity = DEFAULT_SEVERITY
+    other: str | None = None
 
     def __post_init__(self) -> None:
         # capped at the source: a hostile program's exception text must not flood the

@@ -260,3 +260,9 @@ def test_a_part_still_failing_the_gates_after_its_attempts_is_skipped_not_commit
     # the feedback points into the reply's own blocks, not into the spliced program
     feedback = (out / "history" / "003-arm.attempt-1.txt").read_text()
     assert "(line 1 of your body block)" in feedback, feedback
+    # the retry shows the attempt, then the pair alone where the two meet
+    calls = [json.loads(x) for x in (out / "transcript.jsonl").read_text().splitlines()]
+    retry = [c for c in calls if c["role"] == "build"][3]["request"]["messages"][-1]
+    names = [i["name"] for i in retry["images"]]
+    assert names == ["iso_se", "iso_nw", "closeup_arm_post_iso_se", "closeup_arm_post_iso_nw"], names
+    assert "close-up of arm and post alone where they meet" in retry["text"]

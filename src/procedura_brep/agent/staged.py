@@ -32,7 +32,7 @@ from ..llm.errors import BudgetExceeded
 from ..paths import write_atomic
 from ..program.model import CompiledModel
 from ..program.splice import SpliceError, empty_program, parse_reply, splice
-from .context import CommittedPart, build_request
+from .context import CommittedPart, build_request, captions
 from .materials import materials_stage
 from .plan import Plan, PlanError, PlannedPart, parse_plan
 from . import reference as reference_image
@@ -49,6 +49,8 @@ DONE_WORD = "DONE"
 #: Views of a failed (but compiled) attempt sent with its retry, the part's origin and frames
 #: drawn as axes: two opposite corners, so an axis hidden behind the body in one shows in the other.
 RETRY_VIEWS: tuple[str, ...] = ("iso_se", "iso_nw")
+#: The close-up views of the two parts of a failed attempt's pair finding (issue 23.4).
+PAIR_VIEWS: tuple[str, ...] = ("iso_se", "iso_nw")
 
 
 class StagedError(ProceduraError):
@@ -314,9 +316,18 @@ class StagedRun:
         if not self.options.feedback or verdict is None or not verdict.compiled or verdict.model is None:
             return [], ""
         images, _ = self.tools.render(verdict.model, list(RETRY_VIEWS), frames_of=(name,))
-        return images, (f"\n\nRenders of this attempt ({', '.join(RETRY_VIEWS)}), with {name}'s own "
-                        f"origin ('{name} origin') and every frame it publishes drawn as axes at "
-                        f"their assembly poses: X red, Y green, Z blue.")
+        note = (f"\n\nRenders of this attempt ({captions(RETRY_VIEWS)}), with {name}'s own "
+                f"origin ('{name} origin') and every frame it publishes drawn as axes at their "
+                f"assembly poses: X red, Y green, Z blue.")
+        pair = next((f for f in verdict.errors if f.part and f.other), None)
+        if pair is not None:  # the worst pair finding: the two parts alone, where they meet
+            focus = f"{pair.part}+{pair.other}"
+            close, _ = self.tools.render(verdict.model, list(PAIR_VIEWS), close_up=focus)
+            images += [Image(img.png, f"closeup_{pair.part}_{pair.other}_{img.name}") for img in close]
+            note += (f" Then a close-up of {pair.part} and {pair.other} alone where they meet "
+                     f"({captions(PAIR_VIEWS)}; the other parts left out), for: "
+                     f"{pair.message[:300]}")
+        return images, note
 
     def _try_part(self, text: str, name: str) -> tuple[str, PartVerdict | None, Any]:
         """Parse, splice and gate one reply: (feedback, verdict or None, splice result)."""

@@ -184,7 +184,7 @@ def interference_findings(model: CompiledModel, rows: list[PairOverlap]) -> list
             "interference",
             f"{r.b} and {r.a} interpenetrate: depth {r.depth:.3g} mm{vol}{box} > {r.limit:.3g} mm "
             f"allowed ({why}); there: {where}; move {r.b} out of {r.a} or shrink one of them",
-            part=r.b, mate=r.mate, line=lines.get(r.b), value=r.depth, limit=r.limit))
+            part=r.b, mate=r.mate, line=lines.get(r.b), value=r.depth, limit=r.limit, other=r.a))
     return out
 
 

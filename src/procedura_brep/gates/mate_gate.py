@@ -335,7 +335,7 @@ def mate_findings(mate: CompiledMate, m: MateMeasure, hint: str = "") -> list[Fi
             f"{m.penetration_limit_mm:.3g} mm allowed by fit {mate.fit.get('fit', '?')}; "
             f"{advice}",
             part=mate.child, mate=mate.name, line=mate.line, value=m.penetration_mm,
-            limit=m.penetration_limit_mm))
+            limit=m.penetration_limit_mm, other=mate.parent))
     if not m.exact:
         out.append(unverified_finding(mate.child, mate.parent, m.reason, mate=mate.name,
                                       line=mate.line))

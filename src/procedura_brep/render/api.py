@@ -48,8 +48,24 @@ class Focus:
 
 
 def resolve_focus(model: CompiledModel, name: str) -> Focus:
-    """A close-up on part ``name`` (alone, with its frames) or mate ``name`` (child + parent)."""
+    """A close-up on part ``name`` (alone, with its frames), mate ``name`` (child + parent), or
+    the pair ``"a+b"`` of two parts (a finding's pair: the two alone, fitted to where their
+    boxes overlap, grown by half its size, or to both when they do not overlap)."""
     parts = {p.name: p for p in model.parts}
+    if "+" in name and name not in parts:
+        pair = name.split("+")
+        missing = [n for n in pair if n not in parts]
+        if len(pair) != 2 or missing:
+            raise ValueError(f"close-up pair {name!r} must name two parts as 'a+b'; parts: "
+                             f"{', '.join(parts)}")
+        alo, ahi = scene.bounds(model, [pair[0]])
+        blo, bhi = scene.bounds(model, [pair[1]])
+        lo, hi = np.maximum(alo, blo), np.minimum(ahi, bhi)
+        if np.any(lo > hi):
+            lo, hi = np.minimum(alo, blo), np.maximum(ahi, bhi)
+        grow = 0.5 * max(float(np.max(hi - lo)), 1.0)
+        lo, hi = lo - grow, hi + grow
+        return Focus(name, pair, lo, hi, [], float(np.linalg.norm(hi - lo)) * 0.12)
     if name in parts:
         lo, hi = scene.bounds(model, [name])
         p = parts[name]
