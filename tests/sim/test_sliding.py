@@ -93,3 +93,21 @@ def test_b2_names_the_stop_and_where_the_parts_meet(axes, tmp_path):
     assert "they meet at 39" in b2.message and "mm^3" in b2.message
     clean = run_battery(axes[False], out_dir=tmp_path / "clean", checks=["B2"], frames=False)
     assert clean.check("B2").status == "pass", clean.check("B2").message
+
+
+def test_a_flap_turning_beside_its_post_costs_no_boolean_per_pose(monkeypatch):
+    """Issue 24.1: a flap turns on a pin beside the face of its post, the two touching only
+    across the plane normal to the pin. The faces that can start an overlap (those the turn
+    does not move within themselves) lie on either side of that plane, so the pair is dropped
+    after its start pose; planted: the whole range needs an exact boolean at almost every pose."""
+    from procedura_brep.sim import sweep
+    from procedura_brep.testing.programs import hinge_row
+
+    model = compiled(hinge_row(3), name="hinge")
+    art = articulate(model)
+    hit = SweepScene(model, art).sweep(art.joint("flap_0_pivot"))
+    assert hit.contact == [("flap_0", "post_0")] and hit.depth == 0.0
+    assert hit.booleans <= 3, hit.booleans
+    monkeypatch.setattr(sweep.SweepScene, "_moving_faces_apart", lambda self, j, a, b, side: False)
+    old = SweepScene(model, art).sweep(art.joint("flap_0_pivot"))
+    assert old.booleans >= 20 and old.depth == 0.0

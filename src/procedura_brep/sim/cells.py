@@ -210,14 +210,17 @@ def cell_side(tris: np.ndarray, cell: float = TOL.sweep_cell_mm, max_cells: int 
 
 def surface(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
             keep=None) -> tuple[np.ndarray, float]:
-    """(triangles (n, 3, 3) of the located, meshed ``shape``'s covered faces, world mm; the
-    tessellation's linear deflection, mm): the faces :func:`cover` would cover."""
+    """(triangles (n, 3, 3) of the located, meshed ``shape``'s covered faces, world mm; per
+    triangle, how far its exact face may lie from it, mm: the tessellation's linear deflection,
+    or 0 on a plane, which its triangles lie in exactly): the faces :func:`cover` would cover."""
     from ..kernel import _ocp, mesh_deflection
     o = _ocp()
     # the shipped tessellation's settings (a no-op where the shape is already meshed so)
     linear = mesh_deflection(shape)
     o["BRepMesh"].BRepMesh_IncrementalMesh(shape, linear, False, TOL.mesh_angular_rad, False)
-    tris = []
+    from OCP.BRepAdaptor import BRepAdaptor_Surface
+    from OCP.GeomAbs import GeomAbs_SurfaceType
+    tris, devs = [], []
     exp = o["TopExp"].TopExp_Explorer(shape, o["TopAbs"].TopAbs_FACE)
     while exp.More():
         face = o["TopoDS"].TopoDS.Face(exp.Current())
@@ -226,8 +229,13 @@ def surface(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
             continue
         if keep is not None and not keep(face, o):
             continue
-        tris.append(_triangles(face, o))
-    return (np.vstack(tris) if tris else np.zeros((0, 3, 3))), float(linear)
+        t = _triangles(face, o)
+        planar = BRepAdaptor_Surface(face).GetType() == GeomAbs_SurfaceType.GeomAbs_Plane
+        tris.append(t)
+        devs.append(np.full(len(t), 0.0 if planar else float(linear)))
+    if not tris:
+        return np.zeros((0, 3, 3)), np.zeros(0)
+    return np.vstack(tris), np.concatenate(devs)
 
 
 def cover_of(tris: np.ndarray, linear: float, cell: float) -> Cover:
@@ -252,8 +260,8 @@ def cover(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
     ``keep(face, ocp) -> bool`` filter such as :func:`faces_along`), only the faces it keeps
     are covered. ``cell`` is the finest cell side; :func:`cell_side` widens it to keep about
     ``max_cells`` (default ``TOL.sweep_max_cells``) cells."""
-    tris, linear = surface(shape, axis=axis, keep=keep)
-    return cover_of(tris, linear, cell_side(tris, cell, max_cells))
+    tris, devs = surface(shape, axis=axis, keep=keep)
+    return cover_of(tris, float(devs.max(initial=0.0)), cell_side(tris, cell, max_cells))
 
 
 __all__ = ["Cover", "cell_side", "cover", "cover_of", "cover_radius", "faces_along",

@@ -227,7 +227,7 @@ class SweepScene:
         self._box: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._rest: dict[tuple[str, str], Overlap] = {}
         self._extent: dict[tuple[str, bytes], tuple[float, float]] = {}
-        self._surface: dict[tuple[str, bytes, bytes], tuple[np.ndarray, float, float]] = {}
+        self._surface: dict[tuple[str, bytes, bytes], tuple[np.ndarray, np.ndarray, float]] = {}
         self._pair_cover: dict[tuple, tuple[tuple[Cover, cKDTree | None], tuple[Cover, cKDTree | None]]] = {}
         self.booleans = 0
         self._joint_start = 0  # self.booleans when the current joint's sweep began
@@ -240,8 +240,9 @@ class SweepScene:
         self.booleans += 1
 
     def surface(self, name: str, joint: Joint | None = None,
-                side: int = 0) -> tuple[np.ndarray, float, float]:
-        """(triangles (n, 3, 3) world mm at rest, the mesh deflection, the cell side) of the
+                side: int = 0) -> tuple[np.ndarray, np.ndarray, float]:
+        """(triangles (n, 3, 3) world mm at rest, each one's deviation from its exact face, the
+        cell side) of the
         part's faces a sweep covers: with a revolute or continuous ``joint``, without the faces
         its rotation leaves in place (with ``side`` -1 too: a fixed part of a pair clear at the
         start); with a sliding ``joint`` and ``side`` +1 (-1), only the
@@ -258,16 +259,16 @@ class SweepScene:
             tag = np.round(u * side, 9).tobytes()
         key = (name, b"" if axis is None else np.round(np.concatenate(axis), 9).tobytes(), tag)
         if key not in self._surface:
-            tris, linear = surface(self.model.part(name).shape(), axis=axis, keep=keep)
-            self._surface[key] = (tris, linear, cell_side(tris))
+            tris, devs = surface(self.model.part(name).shape(), axis=axis, keep=keep)
+            self._surface[key] = (tris, devs, cell_side(tris))
         return self._surface[key]
 
     def cover(self, name: str, joint: Joint | None = None,
               side: int = 0) -> tuple[Cover, cKDTree | None]:
         """The part's whole surface sphere cover at rest (world mm) and a KD-tree of its
         centres, faces as :meth:`surface`."""
-        tris, linear, cell = self.surface(name, joint, side)
-        return _with_tree(cover_of(tris, linear, cell))
+        tris, devs, cell = self.surface(name, joint, side)
+        return _with_tree(cover_of(tris, float(devs.max(initial=0.0)), cell))
 
     def _local_box(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         if name not in self._box:
@@ -374,8 +375,9 @@ class SweepScene:
         are never laid."""
         key = (a, b, joint.name, joint.type, side)
         if key not in self._pair_cover:
-            ta, la, ca = self.surface(a, joint, side)
-            tb, lb, cb = self.surface(b, joint if side else None, -side)
+            ta, da, ca = self.surface(a, joint, side)
+            tb, db, cb = self.surface(b, joint if side else None, -side)
+            la, lb = float(da.max(initial=0.0)), float(db.max(initial=0.0))
             inv = rigid_inverse(joint.frame)
             reach = cover_radius(ca, la) + cover_radius(cb, lb) + TOL.sweep_box_slack_mm
             lo_a, hi_a = _orbit_boxes(ta, inv, joint.kind.slides)
@@ -408,6 +410,26 @@ class SweepScene:
         else:
             depth = 0.0
         return 1 if depth <= TOL.sweep_rest_interference_mm else 0
+
+    def _moving_faces_apart(self, joint: Joint, a: str, b: str, side: int) -> bool:
+        """True when, for a pair clear at the start, the faces that can start an overlap (``a``'s
+        and ``b``'s kept faces, :meth:`surface`) overlap by less than ``TOL.sim_penetration_mm``
+        along a direction the motion preserves (a turn's axis; a slide's two cross directions):
+        an overlap can only begin where two such faces meet, and one that begins there stays
+        within that slab, as :func:`_slab_gap` argues for whole parts. The extents are the
+        triangles' vertices (on the exact faces) widened by the faces' deviation from them."""
+        ta, da, _ = self.surface(a, joint, side)
+        tb, db, _ = self.surface(b, joint, -side)
+        if not len(ta) or not len(tb):
+            return True  # nothing of one side can start an overlap
+        for d in self._invariant_dirs(joint):
+            d = d / np.linalg.norm(d)
+            pa, pb = ta @ d, tb @ d  # (n, 3) vertex heights along d
+            overlap = (min(float((pa.max(axis=1) + da).max()), float((pb.max(axis=1) + db).max()))
+                       - max(float((pa.min(axis=1) - da).min()), float((pb.min(axis=1) - db).min())))
+            if overlap < TOL.sim_penetration_mm:
+                return True
+        return False
 
     def orbit_cells(self, joint: Joint, a: str, b: str, side: int = 0) -> tuple[np.ndarray, float]:
         """(centres of ``a``'s surface cells whose orbit under the joint passes near ``b``'s
@@ -448,6 +470,8 @@ class SweepScene:
                 side = self.clear_start(joint, a, b)
                 if side:
                     hit.contact.append((a, b))
+                    if self._moving_faces_apart(joint, a, b, side):
+                        continue
                 cells, radius = self.orbit_cells(joint, a, b, side)
                 if not len(cells):
                     continue

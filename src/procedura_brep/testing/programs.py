@@ -87,3 +87,35 @@ def tower_reply(i: int) -> str:
         raise ValueError(f"block {i} has no block below it; replies add blocks i >= 1")
     return reply_text(part=f"p{i}", params=TOWER_PARAMS, helpers=TOWER_HELPERS,
                       body=tower_part(i), frames=[tower_frames(i)], mates=[tower_mate(i)])
+
+
+def hinge_row(n: int) -> str:
+    """A program of ``n`` parts (n odd: a base and (n - 1) / 2 post + flap hinges)."""
+    k = max(1, (n - 1) // 2)
+    pitch = 70.0
+    rows = ['"""A row of hinges (synthetic benchmark program, hand-written generator)."""',
+            "from procedura_brep.program import *", "", "# === params ===",
+            f"pitch = {pitch}  # mm, hinge spacing", "post_w = 20.0  # mm", "post_h = 60.0  # mm",
+            "peg_d = 8.0  # mm, post peg: nominal of the posts' peg_socket",
+            "pin_d = 6.0  # mm, hinge pin: nominal of the flaps' revolute",
+            f"base_l = {k * pitch + 40.0}  # mm", "", "# === helpers ===", "", "# === parts ===",
+            '@part(detail="silhouette", material="aluminium", description="base plate")',
+            "def base():",
+            "    return Box(base_l, 60, 10, align=(Align.MIN, Align.CENTER, Align.MAX))", ""]
+    frames = ['frames("base", ' + ", ".join(
+        f"p{i}=Location(({20.0 + pitch / 2 + i * pitch}, 0, 0))" for i in range(k)) + ")"]
+    mates = []
+    for i in range(k):
+        rows += [f'@part(detail="major", material="steel", description="post {i}")',
+                 f"def post_{i}():",
+                 "    return Box(post_w, post_w, post_h, align=(Align.CENTER, Align.CENTER, Align.MIN))", "",
+                 f'@part(detail="major", material="aluminium", description="flap {i}")',
+                 f"def flap_{i}():",
+                 "    return Box(40, 4, 30, align=(Align.CENTER, Align.MIN, Align.MIN))", ""]
+        frames += [f'frames("post_{i}", foot=Location((0, 0, 0)), '
+                   f'head=Location((0, post_w / 2, post_h - 8), (-90, 0, 0)))',
+                   f'frames("flap_{i}", pivot=Location((0, 0, 4), (-90, 0, 0)))']
+        mates += [f'mate("post_{i}.foot", "base.p{i}", "peg_socket", nominal="peg_d", fit="location")',
+                  f'mate("flap_{i}.pivot", "post_{i}.head", "revolute", nominal="pin_d", '
+                  f'fit="clearance", limits=(-60, 60), effort=20.0)']
+    return "\n".join(rows + ["# === frames ===", *frames, "", "# === assembly ===", *mates, ""])
