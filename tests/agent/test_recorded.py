@@ -1,49 +1,59 @@
-"""The recorded staged runs still replay through today's pipeline and ship: every part
-committed, every gate and the MuJoCo battery passing. The robot arm (the README's first command)
-goes through every stage, materials and articulation included; the drill press predates them."""
+"""The recorded staged runs replay through today's pipeline and ship (issue 23.7): every part
+committed, every gate and the MuJoCo battery passing and verified, every part modelled around its
+own origin (no part-origin finding) and placed by the solver (no part but the root at the
+identity). Each tape was recorded through ``exchange:`` with an external coding agent playing
+the model, through every stage."""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
 
+import numpy as np
+
 from procedura_brep.agent.staged import generate_staged
 
 TAPES = Path(__file__).parents[2] / "examples" / "tapes"
-TAPE = TAPES / "drill_press_staged.jsonl"
-ARM = TAPES / "robot_arm_staged.jsonl"
+ROUTER = TAPES / "cnc_router_staged.jsonl"
+STAGES = {"plan", "review", "build", "fixer", "critic", "materials", "material_critic", "subparts",
+          "articulation"}
 
 
 def _ships(tape: Path, out: Path, parts: int) -> dict:
     """Replay a recorded tape (labelled so) through the pipeline; the report of a run that
-    shipped ``parts`` parts with every gate, the battery and the refine passing."""
+    shipped ``parts`` parts with every gate, the battery and the refine passing, each part
+    placed by its mates."""
     first = json.loads(tape.read_text().split("\n", 1)[0])
     assert "recorded through exchange, model played by an external coding agent" in first["note"].lower()
+    assert {json.loads(line)["role"] for line in tape.read_text().splitlines()} >= STAGES
     result = generate_staged(None, out, model=f"replay:{tape}")  # the tape must be fully consumed
     assert result.status == "ok", result.message
     report = json.loads((out / "report.json").read_text())
     assert len(report["committed"]) == parts and not report["skipped"]
-    assert report["gates"]["passed"] and report["battery"]["passed"]
+    assert report["gates"]["passed"] and report["battery"]["passed"] and report["battery"]["verified"]
     assert report["refine"]["verdict"] == "ok"
+    assert not [f for f in report["findings"] if f.get("code") == "part-origin"]
+    committed = {c["name"] for c in report["committed"]}
+    root = report["plan"]["parts"][0]["name"]
+    placed = {p["name"]: np.array(p["placement"]) for p in report["parts"] if p["name"] in committed}
+    assert np.allclose(placed[root], np.eye(4))
+    at_identity = [n for n, m in placed.items() if n != root and np.allclose(m, np.eye(4))]
+    assert not at_identity, at_identity
     return report
 
 
-def test_the_recorded_drill_press_replays_and_ships(tmp_path):
-    report = _ships(TAPE, tmp_path / "drill_press", 31)
-    assert report["usage"]["total"]["calls"] == 40
+def _joints(report: dict) -> dict:
+    return next(c for c in report["battery"]["checks"] if c["id"] == "B2")["measured"]["joints"]
 
 
-def test_the_recorded_robot_arm_replays_through_every_stage_and_ships(tmp_path):
-    roles = {json.loads(line)["role"] for line in ARM.read_text().splitlines()}
-    assert roles == {"plan", "review", "build", "fixer", "critic", "materials", "material_critic",
-                     "subparts", "articulation"}
-    out = tmp_path / "robot_arm"
-    report = _ships(ARM, out, 28)
-    assert [s["step"] for s in report["materials"]["steps"]] == ["library", "critic", "subparts"]
-    assert len(report["articulation"]["edits"]) == 6
-    assert len(report["battery"]["checks"][2]["measured"]["joints"]) == 6
+def test_the_recorded_cnc_router_slides_its_gantry_on_four_blocks_and_ships(tmp_path):
+    report = _ships(ROUTER, tmp_path / "router", 28)
+    joints = _joints(report)
+    y = joints["bearing_block_fl_slide"]
+    assert (y["qmax"] - y["qmin"]) * 1000.0 >= 300.0  # a long axis: 340 mm of travel
+    # the four bearing blocks touch their rails along the whole travel: swept on the faces
+    # that can start an overlap, a handful of exact booleans
+    assert {("bearing_block_fl", "y_rail_l"), ("bearing_block_rr", "y_rail_r")} <= \
+        {tuple(p) for p in y["contact_pairs"]}
+    assert y["booleans"] <= 40 and not y["not_verified"]
     assert report["usage"]["total"]["calls"] == 38
-    # the run's own materials reach the exports: more than one colour in the GLB
-    from pygltflib import GLTF2
-    colours = {tuple(m.pbrMetallicRoughness.baseColorFactor) for m in GLTF2().load(str(out / "model.glb")).materials}
-    assert len(colours) >= 3

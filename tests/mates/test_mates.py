@@ -223,3 +223,16 @@ def test_flange_angle0_turns_the_stud_ring():
 def iso273_fit(d: float):
     from procedura_brep.mates import iso273
     return iso273(d, "clearance")
+
+
+def test_one_bolt_ignores_its_pcd_as_documented():
+    """`count=1` means "a single bolt on the frame axis, pcd unused": pcd=0 was refused as
+    outside [1, 5000] (seen in a recorded run); a bad pcd with several bolts still is."""
+    from procedura_brep.errors import MateError
+    from procedura_brep.mates import TYPES
+    from procedura_brep.mates.vocabulary import check_options
+
+    bolts = TYPES["bolt_pattern"]
+    assert check_options("m", bolts, "clearance", {"count": 1, "pcd": 0})["pcd"] is None
+    with pytest.raises(MateError, match="option pcd = 0 is outside"):
+        check_options("m", bolts, "clearance", {"count": 2, "pcd": 0})

@@ -110,8 +110,9 @@ class MateType:
 
     def pcd(self, nominal: float, options: dict[str, Any]) -> float:
         """The pitch circle diameter (mm) of its ring of bolts or studs (0 without a ring): the
-        ``pcd`` option, else ``pcd_factor`` times the nominal (as its feature macro)."""
-        if self.pcd_factor is None:
+        ``pcd`` option, else ``pcd_factor`` times the nominal (as its feature macro); 0 for a
+        single bolt (``count`` 1: on the frame axis)."""
+        if self.pcd_factor is None or options.get("count") == 1:
             return 0.0
         return float(options.get("pcd") or self.pcd_factor * nominal)
 
@@ -355,6 +356,9 @@ def check_options(mate: str, mtype: MateType, fit: str, options: dict[str, Any])
     out: dict[str, Any] = {}
     for key, opt in mtype.options.items():
         value = options.get(key, opt.default)
+        if key == "pcd" and options.get("count") == 1:
+            out[key] = None  # one bolt sits on the frame axis: the documented "pcd unused"
+            continue
         if key in ("limits", "angle_limits"):
             value = _check_limits(mate, mtype, value, key)
         elif key == "features":
