@@ -212,7 +212,9 @@ def surface(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
             keep=None) -> tuple[np.ndarray, float]:
     """(triangles (n, 3, 3) of the located, meshed ``shape``'s covered faces, world mm; per
     triangle, how far its exact face may lie from it, mm: the tessellation's linear deflection,
-    or 0 on a plane, which its triangles lie in exactly): the faces :func:`cover` would cover."""
+    or 0 on a plane, which its triangles lie in exactly; per triangle, the axis of its face when
+    it is a cylinder (its chords deviate only across that axis), else zeros): the faces
+    :func:`cover` would cover."""
     from ..kernel import _ocp, mesh_deflection
     o = _ocp()
     # the shipped tessellation's settings (a no-op where the shape is already meshed so)
@@ -220,7 +222,7 @@ def surface(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
     o["BRepMesh"].BRepMesh_IncrementalMesh(shape, linear, False, TOL.mesh_angular_rad, False)
     from OCP.BRepAdaptor import BRepAdaptor_Surface
     from OCP.GeomAbs import GeomAbs_SurfaceType
-    tris, devs = [], []
+    tris, devs, axes = [], [], []
     exp = o["TopExp"].TopExp_Explorer(shape, o["TopAbs"].TopAbs_FACE)
     while exp.More():
         face = o["TopoDS"].TopoDS.Face(exp.Current())
@@ -230,12 +232,16 @@ def surface(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
         if keep is not None and not keep(face, o):
             continue
         t = _triangles(face, o)
-        planar = BRepAdaptor_Surface(face).GetType() == GeomAbs_SurfaceType.GeomAbs_Plane
+        surf = BRepAdaptor_Surface(face)
+        kind = surf.GetType()
         tris.append(t)
-        devs.append(np.full(len(t), 0.0 if planar else float(linear)))
+        devs.append(np.full(len(t), 0.0 if kind == GeomAbs_SurfaceType.GeomAbs_Plane else float(linear)))
+        ax = (np.array(_dir(surf.Cylinder().Axis().Direction()))
+              if kind == GeomAbs_SurfaceType.GeomAbs_Cylinder else np.zeros(3))
+        axes.append(np.broadcast_to(ax, (len(t), 3)))
     if not tris:
-        return np.zeros((0, 3, 3)), np.zeros(0)
-    return np.vstack(tris), np.concatenate(devs)
+        return np.zeros((0, 3, 3)), np.zeros(0), np.zeros((0, 3))
+    return np.vstack(tris), np.concatenate(devs), np.vstack(axes)
 
 
 def cover_of(tris: np.ndarray, linear: float, cell: float) -> Cover:
@@ -260,7 +266,7 @@ def cover(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
     ``keep(face, ocp) -> bool`` filter such as :func:`faces_along`), only the faces it keeps
     are covered. ``cell`` is the finest cell side; :func:`cell_side` widens it to keep about
     ``max_cells`` (default ``TOL.sweep_max_cells``) cells."""
-    tris, devs = surface(shape, axis=axis, keep=keep)
+    tris, devs, _ = surface(shape, axis=axis, keep=keep)
     return cover_of(tris, float(devs.max(initial=0.0)), cell_side(tris, cell, max_cells))
 
 

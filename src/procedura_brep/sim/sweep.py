@@ -227,8 +227,9 @@ class SweepScene:
         self._box: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._rest: dict[tuple[str, str], Overlap] = {}
         self._extent: dict[tuple[str, bytes], tuple[float, float]] = {}
-        self._surface: dict[tuple[str, bytes, bytes], tuple[np.ndarray, np.ndarray, float]] = {}
+        self._surface: dict[tuple[str, bytes, bytes], tuple[np.ndarray, np.ndarray, float, np.ndarray]] = {}
         self._pair_cover: dict[tuple, tuple[tuple[Cover, cKDTree | None], tuple[Cover, cKDTree | None]]] = {}
+        self._pair_near: dict[tuple, tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]] = {}
         self.booleans = 0
         self._joint_start = 0  # self.booleans when the current joint's sweep began
 
@@ -240,9 +241,9 @@ class SweepScene:
         self.booleans += 1
 
     def surface(self, name: str, joint: Joint | None = None,
-                side: int = 0) -> tuple[np.ndarray, np.ndarray, float]:
+                side: int = 0) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
         """(triangles (n, 3, 3) world mm at rest, each one's deviation from its exact face, the
-        cell side) of the
+        cell side, each one's cylinder axis or zeros, :func:`.cells.surface`) of the
         part's faces a sweep covers: with a revolute or continuous ``joint``, without the faces
         its rotation leaves in place (with ``side`` -1 too: a fixed part of a pair clear at the
         start); with a sliding ``joint`` and ``side`` +1 (-1), only the
@@ -259,15 +260,15 @@ class SweepScene:
             tag = np.round(u * side, 9).tobytes()
         key = (name, b"" if axis is None else np.round(np.concatenate(axis), 9).tobytes(), tag)
         if key not in self._surface:
-            tris, devs = surface(self.model.part(name).shape(), axis=axis, keep=keep)
-            self._surface[key] = (tris, devs, cell_side(tris))
+            tris, devs, axes = surface(self.model.part(name).shape(), axis=axis, keep=keep)
+            self._surface[key] = (tris, devs, cell_side(tris), axes)
         return self._surface[key]
 
     def cover(self, name: str, joint: Joint | None = None,
               side: int = 0) -> tuple[Cover, cKDTree | None]:
         """The part's whole surface sphere cover at rest (world mm) and a KD-tree of its
         centres, faces as :meth:`surface`."""
-        tris, devs, cell = self.surface(name, joint, side)
+        tris, devs, cell, _ = self.surface(name, joint, side)
         return _with_tree(cover_of(tris, float(devs.max(initial=0.0)), cell))
 
     def _local_box(self, name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -366,17 +367,18 @@ class SweepScene:
                 keep.append((a, b))
         return keep, at_rest
 
-    def _covers(self, joint: Joint, a: str, b: str, side: int) -> tuple[tuple[Cover, cKDTree | None],
-                                                                         tuple[Cover, cKDTree | None]]:
-        """The covers a pair is swept with: ``b``'s faces, ``a``'s without its invariant ones;
-        with ``side`` 1 (a slide from a clear start), ``a``'s leading and ``b``'s opposing
-        faces. Only triangles whose orbit can come within reach of the other part's are
-        covered (:func:`_orbit_boxes`): the cells of a large part far from the joint's reach
-        are never laid."""
+    def _near(self, joint: Joint, a: str, b: str, side: int) -> tuple[tuple[np.ndarray, ...],
+                                                                       tuple[np.ndarray, ...]]:
+        """Per part of the pair, (triangles, their deviations, cell side, their cylinder axes)
+        of the faces it is
+        swept with (``b``'s faces, ``a``'s without its invariant ones; with ``side`` 1, a pair
+        clear at the start, only those that can start an overlap, :meth:`surface`), kept only
+        where their orbit can come within reach of the other part's (:func:`_orbit_boxes`): the
+        cells of a large part far from the joint's reach are never laid."""
         key = (a, b, joint.name, joint.type, side)
-        if key not in self._pair_cover:
-            ta, da, ca = self.surface(a, joint, side)
-            tb, db, cb = self.surface(b, joint if side else None, -side)
+        if key not in self._pair_near:
+            ta, da, ca, xa = self.surface(a, joint, side)
+            tb, db, cb, xb = self.surface(b, joint if side else None, -side)
             la, lb = float(da.max(initial=0.0)), float(db.max(initial=0.0))
             inv = rigid_inverse(joint.frame)
             reach = cover_radius(ca, la) + cover_radius(cb, lb) + TOL.sweep_box_slack_mm
@@ -387,8 +389,18 @@ class SweepScene:
             ib = _in_box(lo_b, hi_b, lo_a.min(axis=0, initial=np.inf), hi_a.max(axis=0, initial=-np.inf), reach)
             near = box_pairs(lo_a[ia], hi_a[ia], reach, lo_b[ib], hi_b[ib])
             keep_a, keep_b = ia[np.unique(near[:, 0])], ib[np.unique(near[:, 1])]
-            self._pair_cover[key] = (_with_tree(cover_of(ta[keep_a], la, ca)),
-                                     _with_tree(cover_of(tb[keep_b], lb, cb)))
+            self._pair_near[key] = ((ta[keep_a], da[keep_a], ca, xa[keep_a]),
+                                    (tb[keep_b], db[keep_b], cb, xb[keep_b]))
+        return self._pair_near[key]
+
+    def _covers(self, joint: Joint, a: str, b: str, side: int) -> tuple[tuple[Cover, cKDTree | None],
+                                                                         tuple[Cover, cKDTree | None]]:
+        """The covers a pair is swept with: of the triangles :meth:`_near` keeps."""
+        key = (a, b, joint.name, joint.type, side)
+        if key not in self._pair_cover:
+            (ta, da, ca, _), (tb, db, cb, _) = self._near(joint, a, b, side)
+            self._pair_cover[key] = (_with_tree(cover_of(ta, float(da.max(initial=0.0)), ca)),
+                                     _with_tree(cover_of(tb, float(db.max(initial=0.0)), cb)))
         return self._pair_cover[key]
 
     def clear_start(self, joint: Joint, a: str, b: str) -> int:
@@ -413,20 +425,22 @@ class SweepScene:
 
     def _moving_faces_apart(self, joint: Joint, a: str, b: str, side: int) -> bool:
         """True when, for a pair clear at the start, the faces that can start an overlap (``a``'s
-        and ``b``'s kept faces, :meth:`surface`) overlap by less than ``TOL.sim_penetration_mm``
+        and ``b``'s kept faces where their orbits can meet, :meth:`_near`) overlap by less than ``TOL.sim_penetration_mm``
         along a direction the motion preserves (a turn's axis; a slide's two cross directions):
         an overlap can only begin where two such faces meet, and one that begins there stays
         within that slab, as :func:`_slab_gap` argues for whole parts. The extents are the
         triangles' vertices (on the exact faces) widened by the faces' deviation from them."""
-        ta, da, _ = self.surface(a, joint, side)
-        tb, db, _ = self.surface(b, joint, -side)
+        (ta, da, _, xa), (tb, db, _, xb) = self._near(joint, a, b, side)
         if not len(ta) or not len(tb):
             return True  # nothing of one side can start an overlap
         for d in self._invariant_dirs(joint):
             d = d / np.linalg.norm(d)
             pa, pb = ta @ d, tb @ d  # (n, 3) vertex heights along d
-            overlap = (min(float((pa.max(axis=1) + da).max()), float((pb.max(axis=1) + db).max()))
-                       - max(float((pa.min(axis=1) - da).min()), float((pb.min(axis=1) - db).min())))
+            # a cylinder's chords deviate across its axis only: along d by sin(axis, d)
+            ea = da * np.sqrt(np.clip(1.0 - (xa @ d) ** 2, 0.0, 1.0))
+            eb = db * np.sqrt(np.clip(1.0 - (xb @ d) ** 2, 0.0, 1.0))
+            overlap = (min(float((pa.max(axis=1) + ea).max()), float((pb.max(axis=1) + eb).max()))
+                       - max(float((pa.min(axis=1) - ea).min()), float((pb.min(axis=1) - eb).min())))
             if overlap < TOL.sim_penetration_mm:
                 return True
         return False
