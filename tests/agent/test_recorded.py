@@ -57,3 +57,38 @@ def test_the_recorded_cnc_router_slides_its_gantry_on_four_blocks_and_ships(tmp_
         {tuple(p) for p in y["contact_pairs"]}
     assert y["booleans"] <= 40 and not y["not_verified"]
     assert report["usage"]["total"]["calls"] == 38
+
+
+ARM = TAPES / "robot_arm_staged.jsonl"
+
+
+def test_the_recorded_robot_arm_replays_through_every_stage_and_ships(tmp_path):
+    """The README's first command: re-recorded under issue 23's rules (parts around their own
+    origins, B1 holding every joint's pose under gravity)."""
+    out = tmp_path / "robot_arm"
+    report = _ships(ARM, out, 28)
+    assert [s["step"] for s in report["materials"]["steps"]] == ["library", "critic", "subparts"]
+    joints = _joints(report)
+    assert len(joints) == 6
+    b1 = next(c for c in report["battery"]["checks"] if c["id"] == "B1")
+    assert b1["status"] == "pass" and "held joints" in b1["message"]
+    assert report["usage"]["total"]["calls"] == 42
+    # the run's own materials reach the exports: more than one colour in the GLB
+    from pygltflib import GLTF2
+    colours = {tuple(m.pbrMetallicRoughness.baseColorFactor) for m in GLTF2().load(str(out / "model.glb")).materials}
+    assert len(colours) >= 3
+
+
+EXCAVATOR = TAPES / "excavator_staged.jsonl"
+
+
+def test_the_recorded_excavator_holds_its_boom_stick_and_bucket_and_ships(tmp_path):
+    """A vehicle with several revolute joints: a slewing upper, and a boom, stick and bucket
+    whose pins hold their gravity loads (B1) and sweep their ranges clear (B2)."""
+    report = _ships(EXCAVATOR, tmp_path / "excavator", 28)
+    joints = _joints(report)
+    assert {"turntable_slew", "boom_pivot", "stick_pivot", "bucket_pivot"} <= set(joints)
+    b1 = next(c for c in report["battery"]["checks"] if c["id"] == "B1")["measured"]["joints"]
+    assert b1["boom_pivot"]["gravity_torque_Nm"] > 1.0  # a real load, held
+    assert all(j["drift_deg"] < 1.0 for j in b1.values())
+    assert report["usage"]["total"]["calls"] == 42
