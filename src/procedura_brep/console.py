@@ -104,7 +104,14 @@ def print_check(data: dict[str, Any]) -> None:
         colour = "red" if blocks(f) else "yellow"
         con.print(f"[{colour}]{markup_safe(f.get('severity'))}[/] {markup_safe(f.get('code'))}: "
                   f"{markup_safe(f.get('message'))}")
-    con.print("[green]all gates pass[/]" if data["passed"] else "[red]a gate failed[/]")
+    unverified = [f for f in data.get("findings", []) if f.get("code") == "not-verified"]
+    if not data["passed"]:
+        con.print("[red]a gate failed[/]")
+    elif unverified:
+        con.print(f"[yellow]no gate failed, but {len(unverified)} overlap(s) not verified[/] "
+                  "(see the not-verified warnings)")
+    else:
+        con.print("[green]all gates pass[/]")
 
 
 __all__ = ["err", "more", "print_battery", "print_check", "CELL_CHARS"]

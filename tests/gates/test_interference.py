@@ -334,3 +334,22 @@ def test_toothed_drum_on_a_slotted_plate_is_decided_exactly(boss_r, fails):
     assert row["exact"] and row["volume_mm3"] > 0
     assert np.hypot(*row["point"][:2]) == pytest.approx(10.0, abs=0.35)  # on the bore wall
     clear_caches()
+
+def test_check_says_not_verified_on_its_last_line(monkeypatch, capsys):
+    """`check` never prints "all gates pass" over a pair it could not decide."""
+    import dataclasses
+
+    from procedura_brep.console import print_check
+    from procedura_brep.gates import common as common_mod
+    from procedura_brep.gates.geometry import clear_caches
+
+    monkeypatch.setattr(common_mod, "TOL", dataclasses.replace(TOL, boolean_pair_budget=1))
+    clear_caches()
+    column = cpart("column", _cyl(20, 300))
+    handle = cpart("handle", _box(80, 10, 10), trans(17, -5, 150))
+    report = check_model(_model([column, handle]))
+    clear_caches()
+    assert report.passed
+    print_check(report.as_dict())
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert "not verified" in last and "all gates pass" not in last

@@ -111,3 +111,19 @@ def test_a_flap_turning_beside_its_post_costs_no_boolean_per_pose(monkeypatch):
     monkeypatch.setattr(sweep.SweepScene, "_moving_faces_apart", lambda self, j, a, b, side: False)
     old = SweepScene(model, art).sweep(art.joint("flap_0_pivot"))
     assert old.booleans >= 20 and old.depth == 0.0
+
+
+def test_b3_says_not_verified_for_a_pair_it_could_not_decide(axes, monkeypatch, tmp_path):
+    """A rest pair whose exact common is over the bound is B3 'not verified', not a pass."""
+    from procedura_brep.gates import common as common_mod
+    from procedura_brep.gates.geometry import clear_caches
+    from procedura_brep.sim import run_battery
+
+    monkeypatch.setattr(common_mod, "TOL", dataclasses.replace(TOL, boolean_pair_budget=1))
+    clear_caches()
+    try:
+        b3 = run_battery(axes[False], out_dir=tmp_path, checks=["B3"], frames=False).check("B3")
+    finally:
+        clear_caches()
+    assert b3.passed and b3.status == "not verified"
+    assert "over the budget of 1" in b3.unverified

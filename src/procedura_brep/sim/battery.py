@@ -217,9 +217,13 @@ def check_b3(model: CompiledModel, art) -> CheckResult:
     msg = "; ".join(f"parts {r.a!r} (link {art.part_link.get(r.a)!r}) and {r.b!r} (link "
                     f"{art.part_link.get(r.b)!r}) interpenetrate {r.depth:.3g} mm (allowed "
                     f"{r.limit:.3g} mm)" for r in bad)
+    unverified = "; ".join(f"parts {r.a!r} and {r.b!r}: {r.reason}" for r in rows if not r.exact)
+    msg = msg or "no two parts interpenetrate at rest beyond their fits"
+    if unverified:
+        msg += f"; not verified: {unverified}"
     return CheckResult("B3", "rest-contact scan", not bad, measured,
                        {"max_depth_mm": worst.limit if worst else TOL.penetration_slack_mm},
-                       msg or "no two parts interpenetrate at rest beyond their fits")
+                       msg, unverified=unverified)
 
 
 def run_battery(source: CompiledModel | str | Path, *, out_dir: str | Path | None = None,
