@@ -133,3 +133,17 @@ def test_a_changed_region_recompiles_the_paint_not_the_part(tmp_path):
         assert vol(unpainted.part("arm")) == pytest.approx(vol(a.part("arm")) + 20 * ARM_SECTION, rel=1e-9)
     finally:
         w.close()
+
+
+def test_a_block_of_several_pieces_is_written_the_same_every_time():
+    """Issue 23.6: a region of two boxes (side windows) cut blocks whose solids OCCT returned in
+    either order, so the block's digest changed from one compile to the next and a later paint
+    of another part was refused ("the splice changed the shape of cab_glass_sides")."""
+    from build123d import Box, Compound, Pos
+
+    from procedura_brep import kernel
+    from procedura_brep.program.blocks import _canonical
+
+    a, b = Pos(0, 0, 0) * Box(10, 1, 5), Pos(0, 20, 0) * Box(10, 1, 5)
+    one, two = _canonical(Compound([a, b])), _canonical(Compound([b, a]))
+    assert kernel.write_brep(one.wrapped) == kernel.write_brep(two.wrapped)

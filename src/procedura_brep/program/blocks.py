@@ -74,6 +74,20 @@ def _from_brep(data: bytes) -> Any:
     return Compound(shape) if shape.ShapeType().name == "TopAbs_COMPOUND" else Solid(shape)
 
 
+def _canonical(shape: Any) -> Any:
+    """``shape`` with its solids in a fixed order (by centre of mass, then volume, rounded to
+    1e-6). OCCT returns the solids of a boolean against a region of several pieces in either
+    order from one compile to the next, so the same cut wrote different bytes: the block's
+    digest changed, and a later paint elsewhere was refused as "the splice changed the shape of"
+    that block."""
+    from build123d import Compound
+    solids = shape.solids()
+    if len(solids) <= 1:
+        return shape
+    return Compound(sorted(solids, key=lambda s: (*(round(c, 6) for c in s.center()),
+                                                  round(s.volume, 6))))
+
+
 def _region(b: _Build, decl: PaintDecl) -> Any:
     """The region the paint function returns, as a solid (raises on anything else)."""
     from . import guards
@@ -147,8 +161,8 @@ def _paint_one(b: _Build, reg: Registry, mates: list[dict[str, Any]], decl: Pain
     v0 = _volume(state.unpainted)
     floor = MATERIAL.paint_min_fraction * v0
     try:
-        block = solid & region
-        rest = solid - region
+        block = _canonical(solid & region)
+        rest = _canonical(solid - region)
         vb, vr = _volume(block), _volume(rest)
     except Exception as exc:  # noqa: BLE001 - an OCCT boolean failure is a finding
         fail(f"cutting the region failed: {_exc_text(exc)}")
