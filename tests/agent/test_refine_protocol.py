@@ -64,11 +64,15 @@ def test_edits_need_a_fresh_diagnosis_and_one_diagnosis_allows_one_edit():
     assert act(s, "diagnose").ok and s.edits == 1
 
 
-def test_a_refused_edit_consumes_the_latch_but_not_the_budget():
+def test_a_refused_edit_keeps_the_diagnosis_and_the_budget():
+    """Issue 23.6: a refused action (a set_param on a param other parts read, an edit that does
+    not compile) used up the diagnosis, so the corrected edit was refused too."""
     s = RefineSession(Bench([HIGH]), "p0", max_edits=1)
     act(s, "render", views=["iso_ne"]), act(s, "diagnose")
     step = act(s, "edit_part", part="wheel", reply="broken")
-    assert not step.ok and "does not compile" in step.observation and s.edits == 0 and not s.latch
+    assert not step.ok and "does not compile" in step.observation and s.edits == 0 and s.latch
+    assert "the diagnosis still allows one edit" in step.observation
+    assert act(s, "edit_part", part="wheel", reply="fixed").ok and s.edits == 1 and not s.latch
 
 
 def test_finish_ok_is_gated_on_floaters_high_issues_and_a_current_diagnosis():

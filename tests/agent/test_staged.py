@@ -130,9 +130,12 @@ def test_second_object_floater_caught_repairs_and_an_ungated_give_up(tmp_path):
     floated = (out / "history" / "003-knob.attempt-1.txt").read_text()
     assert "knob" in floated and ("detached" in floated or "float" in floated), floated
     refine = report["refine"]
-    assert refine["verdict"] == "give_up" and refine["edits"] == 0
+    # the unparsable edit is refused but leaves the diagnosis standing, so the corrected edit
+    # lands (issue 23.6); a further edit needs a fresh diagnosis
+    assert refine["verdict"] == "give_up" and refine["edits"] == 1
     refused = "\n".join(refine["refused"])
     assert "edit refused" in refused and "syntax error" in refused
+    assert "the diagnosis still allows one edit" in refused
     assert "needs a fresh diagnosis" in refused
     assert "finish(ok) refused" in refused and "HIGH issue(s) open: [HIGH] knob" in refused
 

@@ -3,8 +3,9 @@
 The object is tests/tapes/box_program.py (a box with a hinged lid and a knob). The run: plan
 (3 parts) -> review drops the knob (restored by the one-direction rule) -> case -> lid -> knob
 floats 30 mm above its own peg (caught: detached piece and floater) -> knob fixed -> refine:
-render, diagnose (critic: HIGH on the knob), an edit that does not parse (refused), a second edit
-without a new diagnosis (refused), finish(ok) with the HIGH issue open (refused), give_up
+render, diagnose (critic: HIGH on the knob), an edit that does not parse (refused; the diagnosis
+stands), the corrected edit (applied), a second edit without a new diagnosis (refused),
+render and diagnose again (the HIGH issue stays), finish(ok) with it open (refused), give_up
 (never gated).
 """
 
@@ -43,6 +44,11 @@ def main() -> None:
                    "- [HIGH] knob: 16 mm is too small to grip; make it 24 mm across."),
         ("fixer", json.dumps({"action": "edit_part", "part": "knob", "reply": broken})),
         ("fixer", json.dumps({"action": "edit_part", "part": "knob", "reply": knob})),
+        ("fixer", json.dumps({"action": "edit_part", "part": "knob", "reply": knob})),
+        ("fixer", json.dumps({"action": "render", "views": ["iso_se", "front"]})),
+        ("fixer", json.dumps({"action": "diagnose"})),
+        ("critic", "SUMMARY: box, lid and knob are there; the knob is still small.\nISSUES:\n"
+                   "- [HIGH] knob: 16 mm is too small to grip; make it 24 mm across."),
         ("fixer", json.dumps({"action": "finish", "verdict": "ok"})),
         ("fixer", json.dumps({"action": "finish", "verdict": "give_up",
                               "reason": "the knob size is a matter of taste"})),

@@ -16,8 +16,9 @@ calling API is needed)::
 the critic, splices and gates; tests use fakes) and holds the invariants of the paper's refine
 loop (section 3.4):
 
-- a successful ``diagnose`` sets a one-shot latch; exactly one edit (``edit_part`` or
-  ``set_param``) consumes it; an edit without it is refused;
+- a successful ``diagnose`` sets a one-shot latch; exactly one applied edit (``edit_part`` or
+  ``set_param``) consumes it; a refused edit leaves it (the diagnosis still stands, so the
+  fixer can correct its edit); an edit without it is refused;
 - ``diagnose`` is refused while the views are stale (rendered before the last change, or none);
 - ``finish(ok)`` is refused while the recompiled program has a visible floater, while the last
   critique has a HIGH issue, or while the last critique predates the last edit, naming them;
@@ -225,11 +226,11 @@ class RefineSession:
         if not self.latch:
             return self._log(name, False, "refused: an edit needs a fresh diagnosis; diagnose first "
                                           "(one diagnosis allows one edit)")
-        self.latch = False  # consumed by the attempt, whether it lands or not
         try:
             new = apply()
-        except EditRefused as exc:
-            return self._log(name, False, f"edit refused: {exc}")
+        except EditRefused as exc:  # nothing changed: the diagnosis still stands
+            return self._log(name, False, f"edit refused: {exc}; the diagnosis still allows one edit")
+        self.latch = False  # consumed by the edit that landed
         self._changed(new)
         self.edits += 1
         renames = getattr(self.bench, "last_renames", {}) if name == "edit_part" else {}
