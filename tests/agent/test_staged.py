@@ -269,3 +269,13 @@ def test_a_part_still_failing_the_gates_after_its_attempts_is_skipped_not_commit
     names = [i["name"] for i in retry["images"]]
     assert names == ["iso_se", "iso_nw", "closeup_arm_post_iso_se", "closeup_arm_post_iso_nw"], names
     assert "close-up of arm and post alone where they meet" in retry["text"]
+
+
+def test_the_fixer_is_told_which_view_each_image_is_and_the_colours(lamp_run):
+    """Issue 23.6: the fixer's rendered images came with no colour legend and no view names."""
+    _, out, _ = lamp_run
+    calls = [json.loads(x) for x in (out / "transcript.jsonl").read_text().splitlines()]
+    shown = [m for c in calls if c["role"] == "fixer" for m in c["request"]["messages"]
+             if m["role"] == "user" and m.get("images") and m["text"].startswith("rendered")]
+    assert shown, "no render observation reached the fixer"
+    assert all("Colour legend: base #" in m["text"] and "(from " in m["text"] for m in shown)

@@ -100,7 +100,9 @@ def refine(host: Host, source: str, *, intro: str, max_edits: int, max_actions: 
             write_atomic(host.out_dir / "history" / f"{history_from + session.edits:03d}-{stage}-{action.name}.py",
                          session.source)
         images = bench.last_images if action.name == "render" and step.ok else []
-        msgs.append(Message.user(step.observation, *images))
+        seen = (f"\nViews{_named(images)}. Colour legend: {bench.last_legend}"
+                if images else "")  # the fixer's images named and keyed, as the critic's
+        msgs.append(Message.user(step.observation + seen, *images))
         host.progress(stage, f"{action.name}: {step.observation.splitlines()[0][:120]}")
     report = {
         "verdict": session.verdict, "edits": session.edits, "actions": len(session.steps),
