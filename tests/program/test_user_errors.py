@@ -47,3 +47,15 @@ def test_kernel_refusal_names_the_non_positive_param(tmp_path):
     res = runner.invoke(app, ["check", str(prog)])
     assert res.exit_code in (1, 2)
     assert "Standard_DomainError" in res.output and "base_w = -10: sizes must be > 0" in res.output
+
+
+def test_a_part_named_like_a_param_is_a_user_error_not_a_dead_child(tmp_path):
+    """`base_t = 12.0` and `def base_t()`: the function rebinds the param. The compile child
+    died with "exited without a result (exit 3)" when frames then used the param."""
+    prog = _write(tmp_path, LAMP.replace("def post():", "def base_t():").replace(
+        'frames("post",', 'frames("base_t",').replace('"post.foot"', '"base_t.foot"').replace(
+        '"post.head"', '"base_t.head"'))
+    res = runner.invoke(app, ["check", str(prog)])
+    assert res.exit_code == 2, res.output
+    assert "param base_t is rebound by a function of the same name" in res.output
+    assert "exited without a result" not in res.output and "internal error" not in res.output

@@ -173,6 +173,13 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     finally:
         registry.pop()
     params = {k: glb.get(k) for k in sections.params}
+    for k, v in list(params.items()):  # a function (part, helper) of a param's name rebinds it
+        if callable(v):
+            b.fail("format", f"param {k} is rebound by a function of the same name (a part or "
+                             f"helper {k}()); give the param or the function another name",
+                   part=k if k in reg.parts else None)
+            b.findings.insert(0, b.findings.pop())  # the cause of what the rebinding broke
+            del params[k]
     if not b.findings and not reg.parts:
         b.fail("no-parts", "the program declares no @part functions")
     n_parts = len(reg.parts) + len(reg.paints)  # colour blocks are parts of the model too
