@@ -264,13 +264,6 @@ class SweepScene:
             self._surface[key] = (tris, devs, cell_side(tris), axes)
         return self._surface[key]
 
-    def cover(self, name: str, joint: Joint | None = None,
-              side: int = 0) -> tuple[Cover, cKDTree | None]:
-        """The part's whole surface sphere cover at rest (world mm) and a KD-tree of its
-        centres, faces as :meth:`surface`."""
-        tris, devs, cell, _ = self.surface(name, joint, side)
-        return _with_tree(cover_of(tris, float(devs.max(initial=0.0)), cell))
-
     def _local_box(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         if name not in self._box:
             lo, hi = kernel.bbox(self.model.part(name).local_shape(), optimal=True)
@@ -370,8 +363,7 @@ class SweepScene:
     def _near(self, joint: Joint, a: str, b: str, side: int) -> tuple[tuple[np.ndarray, ...],
                                                                        tuple[np.ndarray, ...]]:
         """Per part of the pair, (triangles, their deviations, cell side, their cylinder axes)
-        of the faces it is
-        swept with (``b``'s faces, ``a``'s without its invariant ones; with ``side`` 1, a pair
+        of the faces it is swept with (``b``'s faces, ``a``'s without its invariant ones; with ``side`` 1, a pair
         clear at the start, only those that can start an overlap, :meth:`surface`), kept only
         where their orbit can come within reach of the other part's (:func:`_orbit_boxes`): the
         cells of a large part far from the joint's reach are never laid."""
@@ -425,8 +417,9 @@ class SweepScene:
 
     def _moving_faces_apart(self, joint: Joint, a: str, b: str, side: int) -> bool:
         """True when, for a pair clear at the start, the faces that can start an overlap (``a``'s
-        and ``b``'s kept faces where their orbits can meet, :meth:`_near`) overlap by less than ``TOL.sim_penetration_mm``
-        along a direction the motion preserves (a turn's axis; a slide's two cross directions):
+        and ``b``'s kept faces where their orbits can meet, :meth:`_near`) overlap by less than
+        ``TOL.sim_penetration_mm`` along a direction the motion preserves (a turn's axis; a
+        slide's two cross directions):
         an overlap can only begin where two such faces meet, and one that begins there stays
         within that slab, as :func:`_slab_gap` argues for whole parts. The extents are the
         triangles' vertices (on the exact faces) widened by the faces' deviation from them."""
