@@ -23,12 +23,13 @@ def local_point(part: CompiledPart, point: np.ndarray) -> np.ndarray:
     return inv[:3, :3] @ np.asarray(point, float) + inv[:3, 3]
 
 
-def _axis_name(v: np.ndarray) -> str:
-    v = np.asarray(v, float)
-    k = int(np.argmax(np.abs(v)))
-    if abs(abs(v[k]) - 1.0) < 1e-6:
-        return ("+" if v[k] > 0 else "-") + "XYZ"[k]
-    return "(" + ", ".join(f"{x:.2f}" for x in v) + ")"
+def direction_name(v: np.ndarray) -> str:
+    """``"+Z"`` for a unit vector along a world axis (to 1e-3), else ``"(0.707, 0.707, 0)"``."""
+    v = np.round(np.asarray(v, float), 3) + 0.0
+    names = {(0, 0, 1): "+Z", (0, 0, -1): "-Z", (0, 1, 0): "+Y", (0, -1, 0): "-Y",
+             (1, 0, 0): "+X", (-1, 0, 0): "-X"}
+    return names.get(tuple(int(x) for x in v) if np.allclose(v, np.round(v)) else (), "") or \
+        "(" + ", ".join(f"{x:.3g}" for x in v) + ")"
 
 
 def nearest_face(shape: Any, point: np.ndarray) -> str:
@@ -59,16 +60,16 @@ def nearest_face(shape: Any, point: np.ndarray) -> str:
             return np.array([x.X(), x.Y(), x.Z()])
         if kind == S.GeomAbs_Plane:
             n = d(surf.Plane().Axis()) * (-1 if face.Orientation() == TopAbs_REVERSED else 1)
-            return f"planar face, normal {_axis_name(n)}"
+            return f"planar face, normal {direction_name(n)}"
         if kind == S.GeomAbs_Cylinder:
             c = surf.Cylinder()
-            return f"cylindrical face r {c.Radius():.4g} mm, axis {_axis_name(d(c.Axis()))}"
+            return f"cylindrical face r {c.Radius():.4g} mm, axis {direction_name(d(c.Axis()))}"
         if kind == S.GeomAbs_Cone:
-            return f"conical face, axis {_axis_name(d(surf.Cone().Axis()))}"
+            return f"conical face, axis {direction_name(d(surf.Cone().Axis()))}"
         if kind == S.GeomAbs_Sphere:
             return f"spherical face r {surf.Sphere().Radius():.4g} mm"
         if kind == S.GeomAbs_Torus:
-            return f"toroidal face, axis {_axis_name(d(surf.Torus().Axis()))}"
+            return f"toroidal face, axis {direction_name(d(surf.Torus().Axis()))}"
         return "freeform face"
     return ""
 

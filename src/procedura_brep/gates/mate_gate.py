@@ -47,6 +47,7 @@ from ..mates.vocabulary import TYPES
 from ..program.model import CompiledMate, CompiledModel, Finding
 from .common import common
 from .geometry import LRU, PartGeometry, boxes_near, part_geometry
+from .locate import direction_name
 from .pieces import body_faces
 from .policy import GateResult, result
 
@@ -280,14 +281,6 @@ def measure(model: CompiledModel, mate: CompiledMate) -> MateMeasure:
     return MateMeasure(mate.name, *vals)
 
 
-def _dir(v: np.ndarray) -> str:
-    v = np.round(np.asarray(v, float), 3) + 0.0
-    names = {(0, 0, 1): "+Z", (0, 0, -1): "-Z", (0, 1, 0): "+Y", (0, -1, 0): "-Y",
-             (1, 0, 0): "+X", (-1, 0, 0): "-X"}
-    return names.get(tuple(int(x) for x in v) if np.allclose(v, np.round(v)) else (), "") or \
-        "(" + ", ".join(f"{x:.3g}" for x in v) + ")"
-
-
 def flipped_hint(model: CompiledModel, mate: CompiledMate) -> str:
     """Which frame's +Z points which way (world) and which one is wrong, for a mate that both
     hovers and gouges ("" when both bodies lie on their own sides: a plain gouge)."""
@@ -304,9 +297,9 @@ def flipped_hint(model: CompiledModel, mate: CompiledMate) -> str:
         return ""
     blame = f"flip {' and '.join(wrong)}"
     return (f"the frames look flipped: {mate.parent}.{mate.parent_frame} +Z points world "
-            f"{_dir(pz)} and {mate.parent}'s body lies on its {'+' if hp > 0 else '-'}Z side "
+            f"{direction_name(pz)} and {mate.parent}'s body lies on its {'+' if hp > 0 else '-'}Z side "
             f"(must be -Z: a parent frame's +Z points out of the parent); "
-            f"{mate.child}.{mate.child_frame} +Z points world {_dir(cz)} and {mate.child}'s body "
+            f"{mate.child}.{mate.child_frame} +Z points world {direction_name(cz)} and {mate.child}'s body "
             f"lies on its {'+' if hc > 0 else '-'}Z side (must be +Z: into the child); the two "
             f"bodies must oppose across the mate plane: {blame}")
 
