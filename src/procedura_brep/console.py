@@ -48,9 +48,7 @@ def print_battery(data: dict[str, Any]) -> None:
         t.add_column(col, overflow="fold")
     for c in data["checks"]:
         verdict = {"skip": "[yellow]skip[/]", "fail": "[red]FAIL[/]",
-                   "not verified": "[yellow]not verified[/]"}.get(c.get("status", ""), "[green]pass[/]")
-        if "status" not in c:  # a report written before checks had a status
-            verdict = "[yellow]skip[/]" if c.get("skipped") else ("[green]pass[/]" if c["passed"] else "[red]FAIL[/]")
+                   "not verified": "[yellow]not verified[/]"}.get(c["status"], "[green]pass[/]")
         meas = ", ".join(f"{_cell(k)}={_cell(v)}" for k, v in (c.get("measured") or {}).items())
         lim = ", ".join(f"{_cell(k)}={_cell(v)}" for k, v in (c.get("limits") or {}).items())
         t.add_row(_cell(c["id"]), _cell(c.get("name", "")), verdict, meas, lim,

@@ -124,15 +124,11 @@ class Common:
     Attributes:
         solids: the common's solids (empty when the parts do not overlap, or not verified).
         exact: the common was computed; False means the pair is **not verified**.
-        pairs: face pairs whose boxes overlap (the boolean's work; on the crops when cropped).
-        cropped: the common ran on the two solids cut to their boxes' overlap.
         reason: why the pair is not verified ("" when exact).
     """
 
     solids: list[CommonSolid]
     exact: bool = True
-    pairs: int = 0
-    cropped: bool = False
     reason: str = ""
 
     @property
@@ -194,40 +190,38 @@ def common(ga: PartGeometry, shape_a: Any, gb: PartGeometry, shape_b: Any) -> Co
 def _bounded_common(ga: PartGeometry, shape_a: Any, gb: PartGeometry, shape_b: Any) -> Common:
     budget = TOL.boolean_pair_budget
     pairs = face_pairs(face_boxes(ga), face_boxes(gb))
-    cropped = False
     if pairs > budget:
         lo = np.maximum(ga.lo, gb.lo) - TOL.crop_margin_mm
         hi = np.minimum(ga.hi, gb.hi) + TOL.crop_margin_mm
         try:
             shape_a, shape_b = crop(shape_a, lo, hi), crop(shape_b, lo, hi)
         except Exception as exc:  # noqa: BLE001  OCCT raised on a broken solid: say so, never crash
-            return _unverified(ga, gb, pairs, f"OCCT failed cropping them ({_first_line(exc)})")
+            return _unverified(ga, gb, f"OCCT failed cropping them ({_first_line(exc)})")
         if shape_a is None or shape_b is None:
-            return _unverified(ga, gb, pairs, "OCCT failed cropping them")
+            return _unverified(ga, gb, "OCCT failed cropping them")
         full = pairs
         pairs = face_pairs(_boxes_of_faces([shape_a]), _boxes_of_faces([shape_b]))
-        cropped = True
         if pairs > budget:
-            return _unverified(ga, gb, pairs, (
+            return _unverified(ga, gb, (
                 f"{full} face pairs meet ({pairs} after cropping both to their boxes' overlap), "
                 f"over the budget of {budget} (config TOL.boolean_pair_budget)"))
         log.info("common %s & %s: %d face pairs, %d after cropping", ga.name, gb.name, full, pairs)
     try:
         solids = exact_common(shape_a, shape_b)
     except Exception as exc:  # noqa: BLE001  OCCT raised (a broken solid): say so, never crash
-        return _unverified(ga, gb, pairs, f"OCCT failed on their boolean ({_first_line(exc)})")
+        return _unverified(ga, gb, f"OCCT failed on their boolean ({_first_line(exc)})")
     if solids is None:
-        return _unverified(ga, gb, pairs, "OCCT could not compute their boolean")
-    return Common(solids, True, pairs, cropped)
+        return _unverified(ga, gb, "OCCT could not compute their boolean")
+    return Common(solids)
 
 
 def _first_line(exc: BaseException) -> str:
     return (str(exc).strip().splitlines() or [type(exc).__name__])[0][:200]
 
 
-def _unverified(ga: PartGeometry, gb: PartGeometry, pairs: int, reason: str) -> Common:
+def _unverified(ga: PartGeometry, gb: PartGeometry, reason: str) -> Common:
     log.info("common %s & %s not verified: %s", ga.name, gb.name, reason)
-    return Common([], False, pairs, False, reason)
+    return Common([], False, reason)
 
 
 def crop(shape: Any, lo: np.ndarray, hi: np.ndarray) -> Any | None:

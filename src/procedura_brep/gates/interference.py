@@ -56,7 +56,6 @@ class PairOverlap:
             penetration, reported by the mate gate), ``"interference"`` (this gate's finding).
         mate: the mate whose region the worst solid reaches, if any.
         exact: the common was computed (False: the pair is not verified, see ``reason``).
-        pairs: face pairs the boolean intersected (:func:`.common.face_pairs`).
         reason: why the pair is not verified.
         lo, hi: the worst solid's box, world mm.
         point: a point inside the worst solid (its node nearest the box centre), world mm.
@@ -71,7 +70,6 @@ class PairOverlap:
     judged_by: str
     mate: str | None = None
     exact: bool = True
-    pairs: int = 0
     reason: str = ""
     lo: list[float] = field(default_factory=list)
     hi: list[float] = field(default_factory=list)
@@ -104,7 +102,7 @@ def _judge(a: str, b: str, com: Common, mates: list[CompiledMate],
     slack = TOL.penetration_slack_mm
     if not com.exact:
         return PairOverlap(a, b, 0.0, None, slack, True, "unverified",
-                           mates[0].name if mates else None, False, com.pairs, com.reason)
+                           mates[0].name if mates else None, False, com.reason)
     rows = []
     for s in com.solids:
         verdict = None
@@ -132,7 +130,7 @@ def _judge(a: str, b: str, com: Common, mates: list[CompiledMate],
     if any(r[0][3] == "interference" for r in bad):
         (d, lim, _, how, mname), s = max((r for r in bad if r[0][3] == "interference"),
                                          key=lambda r: r[0][0])
-    return PairOverlap(a, b, d, com.volume, lim, not bad, how, mname, True, com.pairs, "",
+    return PairOverlap(a, b, d, com.volume, lim, not bad, how, mname, True, "",
                        np.round(s.lo, 4).tolist(), np.round(s.hi, 4).tolist(),
                        np.round(s.inner_point(), 4).tolist())
 
