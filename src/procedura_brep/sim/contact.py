@@ -9,7 +9,8 @@ chunky overlaps.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -24,14 +25,19 @@ BOX_MARGIN_MM = 0.01
 
 @dataclass(frozen=True)
 class Overlap:
-    """Interference between two parts: volume mm^3, thickness mm and, when they overlap, a
-    point of the common (world mm: its vertex nearest its box centre)."""
+    """Interference between two parts: volume mm^3, thickness mm and, when they overlap, the
+    common itself (for :meth:`point`)."""
 
     a: str
     b: str
     volume: float
     depth: float
-    point: np.ndarray | None = None
+    common: Any = field(default=None, repr=False, compare=False)
+
+    def point(self) -> np.ndarray | None:
+        """A point of the common (world mm: its vertex nearest its box centre), or None; read
+        on demand, not for every pose a sweep checks."""
+        return None if self.common is None else _point(self.common)
 
 
 def overlap(a_name: str, a_shape, b_name: str, b_shape) -> Overlap:
@@ -53,7 +59,7 @@ def exact_overlap(a_name: str, a_shape, b_name: str, b_shape) -> Overlap:
     if vol <= 0:
         return Overlap(a_name, b_name, 0.0, 0.0)
     area = kernel.area(common)
-    return Overlap(a_name, b_name, vol, 2.0 * vol / area if area > 0 else 0.0, _point(common))
+    return Overlap(a_name, b_name, vol, 2.0 * vol / area if area > 0 else 0.0, common)
 
 
 def _point(shape) -> np.ndarray | None:

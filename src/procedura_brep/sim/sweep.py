@@ -519,11 +519,12 @@ class SweepScene:
         box_b = self.obb(b, np.eye(4))
         rest = self.rest(a, b).depth
         crops = None
+        first = ""  # this pair's first pose whose new depth passes TOL.sim_penetration_mm
         outside = [q for q in extra if q < lo - OVERSHOOT_EPS or q > hi + OVERSHOOT_EPS]
 
         def check(q: float) -> np.ndarray:
             """Check the pose at ``q``; return every cell's gap to the fixed part (mm)."""
-            nonlocal crops
+            nonlocal crops, first
             m = motion(joint, q)
             dist, _ = tb.query(cells @ m[:3, :3].T + m[:3, 3],
                                distance_upper_bound=reach + ADVANCE_HORIZON_MM)
@@ -535,15 +536,13 @@ class SweepScene:
                 self._spend(lambda: f"{a!r} against {b!r} at {label(joint, q)}")
                 o = exact_overlap(a, kernel.located(crops[0], m), b, crops[1])
                 new = o.depth - rest
-                if new > TOL.sim_penetration_mm and (hit.pair is None or hit.pair == (a, b)) \
-                        and not hit.first_at:
-                    hit.first_at = label(joint, q)
+                if new > TOL.sim_penetration_mm and not first:
+                    first = label(joint, q)
                 if new > hit.depth:
-                    if hit.pair != (a, b):
-                        hit.first_at = label(joint, q) if new > TOL.sim_penetration_mm else ""
-                    hit.depth, hit.volume = new, o.volume
+                    hit.depth, hit.volume, hit.first_at = new, o.volume, first
                     hit.pair, hit.at, hit.value = (a, b), label(joint, q), q
-                    hit.point = [round(float(x), 4) for x in o.point] if o.point is not None else []
+                    p = o.point()  # read off the common only for the deepest pose
+                    hit.point = [round(float(x), 4) for x in p] if p is not None else []
             return gap
 
         for q in outside:  # MuJoCo overshoots beyond the commanded range: one pose each
