@@ -557,6 +557,8 @@ def revise(
                                                  "$PROCEDURA_BREP_MODEL, then the user config file)")] = None,
     base_url: Annotated[Optional[str], typer.Option("--base-url")] = None,
     max_edits: Annotated[int, typer.Option(min=1, max=20, help="Edits allowed.")] = 4,
+    max_calls: Annotated[int, typer.Option(min=2, max=200, help="Model calls allowed (fixer and "
+                                           "critic); the edits made before the bound are kept.")] = 32,
     no_simulate: Annotated[bool, typer.Option("--no-simulate", help="Skip the MuJoCo battery.")] = False,
     json_out: Annotated[bool, typer.Option("--json", help="Print the revision report on stdout.")] = False,
     quiet: QuietOption = False,
@@ -573,13 +575,14 @@ def revise(
     try:
         with _progress(quiet) as progress:
             res = run(run_dir, instruction, model=setting.model, base_url=setting.base_url, parts=part or None,
-                      max_edits=max_edits, simulate=not no_simulate,
+                      max_edits=max_edits, max_calls=max_calls, simulate=not no_simulate,
                       progress=lambda stage, text: progress(f"{stage}: {text}"))
     except (ReviseError, ConfigError) as exc:
         _err(str(exc))
         raise typer.Exit(EXIT_USAGE) from None
     except LLMError as exc:
-        _err(f"{exc} (the program in {run_dir} is unchanged unless an edit was applied)")
+        _err(f"{exc} (every edit applied before this is in {run_dir}/program.py; rebuild it with "
+             f"`procedura-brep build {run_dir}/program.py -o {run_dir}`)")
         raise typer.Exit(EXIT_FAIL) from None
     if json_out:
         typer.echo(json.dumps(res.report, indent=2, ensure_ascii=False))
@@ -587,7 +590,8 @@ def revise(
         if not json_out:
             typer.echo(f"revised {run_dir}: {res.report.get('edits', 0)} edit(s)")
         raise typer.Exit(exit_code(res.status))
-    _err(f"revise ended {res.status} after {res.report.get('edits', 0)} edit(s) (see {run_dir}/history)")
+    why = f": {res.report['reason']}" if res.report.get("reason") else ""
+    _err(f"revise ended {res.status}{why} after {res.report.get('edits', 0)} edit(s) (see {run_dir}/history)")
     raise typer.Exit(exit_code(res.status))
 
 

@@ -62,3 +62,45 @@ def test_revise_refuses_bad_requests(tmp_path):
         revise(out, "bigger", model=f"replay:{TAPE}", parts=["wheel"])
     with pytest.raises(ReviseError, match="empty"):
         revise(out, "  ", model=f"replay:{TAPE}")
+
+
+def _requests(out: Path) -> list[dict]:
+    return [json.loads(x) for x in (out / "transcript.jsonl").read_text().splitlines() if x.strip()]
+
+
+def test_revise_request_states_the_five_block_format(tmp_path):
+    out = tmp_path / "lamp"
+    assert build(LAMP, out).ok
+    revise(out, "make the arm 120 mm long", model=f"replay:{TAPE}", parts=["arm"], simulate=False)
+    first = json.dumps(_requests(out)[0])
+    for block in ("## params", "## helpers", "## body", "## frames", "## mates", "Reply with five blocks"):
+        assert block in first, block
+
+
+def test_revise_stops_at_its_call_bound_keeping_the_edit_it_made(tmp_path):
+    """The tape's 7th call applies the arm edit; with 7 calls allowed the revise stops at the
+    8th, with the edit already in program.py (written when it was applied) and rebuilt."""
+    out = tmp_path / "lamp"
+    assert build(LAMP, out).ok
+    seven = tmp_path / "seven.jsonl"  # the calls the bound lets through, so the tape is consumed
+    seven.write_text("".join(TAPE.read_text().splitlines(keepends=True)[:7]))
+    result = revise(out, "make the arm 120 mm long", model=f"replay:{seven}", parts=["arm"],
+                    simulate=False, max_calls=7)
+    assert result.status == "calls" and result.report["calls"] == 7
+    assert "7 model calls are spent" in result.report["reason"]
+    assert result.report["edits"] == 1 and result.report["changed"]
+    assert "arm_l = 120.0" in (out / "program.py").read_text()
+    assert result.build is not None and result.build.ok
+    assert len(_requests(out)) == 7
+
+
+def test_an_applied_edit_is_in_program_py_before_the_revise_ends(tmp_path):
+    """A provider that dies after the edit (the tape ends at call 8) leaves the edit on disk."""
+    out = tmp_path / "lamp"
+    assert build(LAMP, out).ok
+    short = tmp_path / "short.jsonl"
+    short.write_text("".join(TAPE.read_text().splitlines(keepends=True)[:7]))
+    from procedura_brep.llm import LLMError
+    with pytest.raises(LLMError):
+        revise(out, "make the arm 120 mm long", model=f"replay:{short}", parts=["arm"], simulate=False)
+    assert "arm_l = 120.0" in (out / "program.py").read_text()

@@ -15,6 +15,15 @@ def template(name: str) -> str:
     return (PROMPTS / f"{name}.md").read_text(encoding="utf-8")
 
 
+def part_format() -> str:
+    """The five-block reply format of one part and its rules, as the build requests state them
+    (build_system.md from "Reply with five blocks" up to its example): what an ``edit_part``
+    reply must follow wherever the model never saw a build request (``revise``)."""
+    text = template("build_system")
+    start, end = text.index("Reply with five blocks"), text.index("\nExample")
+    return text[start:end].strip()
+
+
 @lru_cache(maxsize=1)
 def reference() -> str:
     """The program API reference: docstrings of material/part/paint/frames/mate, mate types,

@@ -3,8 +3,14 @@
 The request runs through the refine loop (:mod:`.refine`): render, a critic that reads the
 request and localises it to parts, then one gated edit per diagnosis. Edits touch only the parts
 named with ``--part`` (or, without it, the parts the critic names); a param may change only if
-no other part reads it. Every other part's source stays byte for byte. The run directory gains a
-history entry per applied edit and a line in ``history/revisions.jsonl``, then is rebuilt.
+no other part reads it. Every other part's source stays byte for byte.
+
+Each applied edit (spliced, compiled and gated) is written back to ``program.py`` (and
+``state.json``) at once, besides its ``history/`` entry, so a revise that is stopped (Ctrl-C, a
+provider error, its call bound) keeps every edit it made. A revise makes at most ``max_calls``
+model calls (fixer and critic together); it then stops with the edits so far. It ends with a
+line in ``history/revisions.jsonl`` and, when the program changed, a rebuild with the gates (and
+the battery).
 """
 
 from __future__ import annotations
@@ -22,7 +28,7 @@ from ..llm import Client, Image, Message, Request, Settings
 from ..paths import write_atomic
 from ..program.splice import param_readers, program_parts
 from .actions import EditRefused
-from .prompts import template
+from .prompts import part_format, template
 from .refine import RefineBench, refine
 from .rundir import RunDir
 from .tools import Tools
@@ -45,17 +51,26 @@ class ReviseResult:
     build: Any = None
 
 
+class _CallsSpent(ProceduraError):
+    """The revise's bound on model calls is reached (the edits so far are kept)."""
+
+
 class _Host:
     """The model calls and tools of one revise (a tiny stand-in for a staged run)."""
 
     def __init__(self, client: Client, out_dir: Path, prompt: str, step: int, tools: Tools,
-                 progress: Callable[[str, str], None]) -> None:
+                 progress: Callable[[str, str], None], max_calls: int) -> None:
         self.client, self.out_dir, self.prompt, self.step = client, out_dir, prompt, step
         self.tools, self.name, self.progress = tools, "model", progress
+        self.max_calls, self.calls = max_calls, 0
+        self.applied = 0  # edits written back to the run directory
 
     def _call(self, role: str, system: str, messages: list[Message], *, max_tokens: int = 8000) -> str:
+        if self.calls >= self.max_calls:
+            raise _CallsSpent(f"the revise's {self.max_calls} model calls are spent")
         reply = self.client.complete(Request(role, self.step, system, tuple(messages), Settings(max_tokens=max_tokens)))
         self.step += 1
+        self.calls += 1
         return reply.text
 
     def _refs(self) -> list[Image]:
@@ -93,7 +108,8 @@ def _prompt_of(source: str, out_dir: Path) -> str:
 
 
 class _RestrictedBench(RefineBench):
-    """Edits only on the allowed parts; param changes only where no other part reads the param."""
+    """Edits only on the allowed parts; param changes only where no other part reads the param.
+    Every edit it applies is written back to the run directory at once (:func:`_write_back`)."""
 
     def set_param(self, source: str, name: str, value: float) -> str:
         readers = param_readers(source).get(name, set())
@@ -101,14 +117,36 @@ class _RestrictedBench(RefineBench):
         if self.allowed is not None and outside:
             raise EditRefused(f"param {name} is also read by {', '.join(outside)}, which this change "
                               "may not touch; add a new param in an edit_part instead")
-        return super().set_param(source, name, value)
+        return _write_back(self.host, super().set_param(source, name, value))
+
+    def edit_part(self, source: str, part: str, reply: str) -> str:
+        return _write_back(self.host, super().edit_part(source, part, reply))
+
+
+def _write_back(host: Any, source: str) -> str:
+    """``source`` (an edit the session is about to apply: it passed its gates) as the run
+    directory's program.py and state.json source."""
+    write_atomic(host.out_dir / "program.py", source)
+    host.applied += 1
+    rd = RunDir(host.out_dir)
+    if rd.state_path.is_file():
+        state = rd.load()
+        state.source, state.step = source, host.step
+        rd.save(state)
+    return source
 
 
 def revise(out_dir: Path, instruction: str, *, model: str, base_url: str | None = None,
-           parts: list[str] | None = None, max_edits: int = 4, max_actions: int = 30,
-           simulate: bool = True, progress: Callable[[str, str], None] | None = None,
+           parts: list[str] | None = None, max_edits: int = 4, max_actions: int = 24,
+           max_calls: int = 32, simulate: bool = True,
+           progress: Callable[[str, str], None] | None = None,
            tools: Tools | None = None) -> ReviseResult:
     """Apply ``instruction`` to the program in ``out_dir`` through diagnosed, gated edits.
+
+    Ends after at most ``max_calls`` model calls (``max_actions`` fixer actions among them),
+    with the program rewritten, rebuilt and gated, or with the reason in ``report["verdict"]``
+    (``give_up``, ``budget``: the edits are spent, ``steps``: the actions are spent, ``calls``:
+    the model calls are spent); the edits applied before the end are kept either way.
 
     Raises:
         ReviseError: no program in ``out_dir``, an empty instruction, or a ``--part`` that is not a part.
@@ -132,29 +170,33 @@ def revise(out_dir: Path, instruction: str, *, model: str, base_url: str | None 
     if isinstance(provider, ReplayProvider):
         provider.skip_before(step)
     client = Client(provider, ledger=Ledger(), transcript=Transcript(out_dir / "transcript.jsonl"))
-    host = _Host(client, out_dir, _prompt_of(source, out_dir), step, tools or Tools(), progress)
+    host = _Host(client, out_dir, _prompt_of(source, out_dir), step, tools or Tools(), progress, max_calls)
     allowed = set(parts) if parts else set()
     scope = ", ".join(sorted(allowed)) if allowed else "the parts the review names"
     intro = (f"A person asks for this change to the assembly ({host.prompt}):\n\n    {instruction}\n\n"
              f"You may edit only: {scope}. Every other part stays as it is.\nParts: {', '.join(names)}\n\n"
-             f"The program:\n```python\n{source}```\n\nStart by rendering views of the build.")
+             f"The program:\n```python\n{source}```\n\n"
+             "An edit_part's \"reply\" is the part written whole again, in the format its build "
+             "used:\n\n" + part_format() + "\n\nA param that other parts read cannot change in a "
+             "revise limited to some parts: add a new param for this part in its params block "
+             f"instead. You have {max_edits} edits and at most {max_calls} model calls.\n\n"
+             "Start by rendering views of the build.")
     task = f"The change request: {instruction}\n(The assembly: {host.prompt})"
     try:
         new, report = refine(host, source, intro=intro, max_edits=max_edits, max_actions=max_actions,
                              history_from=_history_count(out_dir), critic_system=template("critic_revise"),
                              task=task, allowed=allowed, stage="revise", roles=("revise", "revise_critic"),
                              bench_type=_RestrictedBench)
+    except _CallsSpent as exc:  # the edits applied so far are in program.py already
+        new = prog.read_text(encoding="utf-8")
+        report = {"verdict": "calls", "reason": str(exc), "edits": host.applied}
     finally:
         client.close()
-    report = {"instruction": instruction, "parts": parts or [], **report, "changed": new != source}
+    report = {"instruction": instruction, "parts": parts or [], **report, "changed": new != source,
+              "calls": host.calls}
     result = ReviseResult("ok" if report["verdict"] == "ok" else str(report["verdict"]), out_dir, new, report)
     if new != source:
         write_atomic(prog, new)
-        rd = RunDir(out_dir)
-        if rd.state_path.is_file():
-            state = rd.load()
-            state.source, state.step = new, host.step
-            rd.save(state)
         result.build = host.tools.final_build(new, out_dir, simulate=simulate)
         if not result.build.ok and result.status == "ok":
             result.status = "gates_failed"
