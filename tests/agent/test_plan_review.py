@@ -113,3 +113,26 @@ def test_review_mates_that_point_forward_are_reverted():
     merged, repairs = enforce_review(original, plan(rows))
     assert merged.part("rocker_l").partners == ("chassis",)
     assert any("kept its original mates" in r for r in repairs)
+
+
+def test_a_plan_mate_can_ask_for_no_features():
+    """The plan says features=False for a rail and block that model their own contact; the build
+    request passes it on, and the plan's JSON keeps it (the default stays unwritten)."""
+    from procedura_brep.agent.context import part_slice
+    plan = parse_plan({"parts": [
+        {"name": "rail", "detail": "major", "description": "a 600 mm steel rail, 20 x 20 mm"},
+        {"name": "block", "detail": "major", "description": "a 60 mm carriage block on the rail",
+         "mates": [{"partner": "rail", "type": "prismatic", "nominal": "rail_w", "features": False}]},
+        {"name": "cap", "detail": "sub", "description": "a 30 mm end cap on the block's side",
+         "mates": [{"partner": "block", "type": "peg_socket", "nominal": "cap_d"}]}]})
+    block = plan.part("block")
+    assert block.mates[0].features is False and plan.part("cap").mates[0].features is True
+    assert "- to rail: prismatic, nominal rail_w, features=False" in part_slice(plan, block)
+    assert "features=False" not in part_slice(plan, plan.part("cap"))
+    data = json.loads(plan.to_json())
+    assert data["parts"][1]["mates"][0]["features"] is False
+    assert "features" not in data["parts"][2]["mates"][0]
+    assert parse_plan(data) == plan
+    with pytest.raises(PlanError, match="features must be true or false"):
+        parse_plan({"parts": [data["parts"][0], {**data["parts"][1], "mates": [
+            {"partner": "rail", "type": "prismatic", "nominal": "rail_w", "features": "no"}]}]})

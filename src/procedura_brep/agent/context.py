@@ -55,7 +55,10 @@ def part_slice(plan: Plan, part: PlannedPart) -> str:
             f"Mandate (size, aspect, pose against its neighbours): {part.description}"]
     if part.mates:
         rows.append("Its mates (declare each in the mates block; the nominal is a param name):")
-        rows += [f"- to {m.partner}: {m.type}, nominal {m.nominal}" for m in part.mates]
+        rows += [f"- to {m.partner}: {m.text()}" for m in part.mates]
+        if not all(m.features for m in part.mates):
+            rows.append("(features=False: pass it to mate(...); the compiler adds no peg or bore "
+                        "there, it only places the part: model the contact surfaces yourself)")
     else:
         rows.append("It is the root: it mates to nothing; publish the frames later parts need.")
     kids = [p for p in later if part.name in p.partners]

@@ -49,14 +49,24 @@ class PlanError(ProceduraError):
 
 @dataclass(frozen=True)
 class PlannedMate:
-    """A mate of a planned part to an earlier one: the partner part, the type, the nominal."""
+    """A mate of a planned part to an earlier one: the partner part, the type, the nominal, and
+    whether the compiler builds its features (``features=False``: frames and placement only,
+    the parts model their contact themselves, as a long slide's rail and blocks do)."""
 
     partner: str
     type: str
     nominal: str
+    features: bool = True
 
-    def as_dict(self) -> dict[str, str]:
-        return {"partner": self.partner, "type": self.type, "nominal": self.nominal}
+    def as_dict(self) -> dict[str, Any]:
+        row: dict[str, Any] = {"partner": self.partner, "type": self.type, "nominal": self.nominal}
+        if not self.features:
+            row["features"] = False
+        return row
+
+    def text(self) -> str:
+        """``revolute, nominal pin_d`` (``, features=False`` when the compiler builds none)."""
+        return f"{self.type}, nominal {self.nominal}" + ("" if self.features else ", features=False")
 
 
 @dataclass(frozen=True)
@@ -190,7 +200,11 @@ def parse_plan(text: str | dict[str, Any], *, mate_types: tuple[str, ...] | None
                 problems.append(f"{where} mate {k}: expected an object with partner, type, nominal")
                 continue
             partner, mtype, nominal = m.get("partner"), m.get("type"), m.get("nominal")
+            feats = m.get("features", True)
             bad = False
+            if not isinstance(feats, bool):
+                problems.append(f"{where} mate {k}: features must be true or false, not {feats!r}")
+                bad = True
             if not isinstance(partner, str) or not NAME_RE.fullmatch(partner):
                 problems.append(f"{where} mate {k}: partner {partner!r} is not a part name")
                 bad = True
@@ -206,7 +220,7 @@ def parse_plan(text: str | dict[str, Any], *, mate_types: tuple[str, ...] | None
                                 "(snake_case), never a number")
                 bad = True
             if not bad:
-                mates.append(PlannedMate(partner, mtype, nominal))
+                mates.append(PlannedMate(partner, mtype, nominal, feats))
         parts.append(PlannedPart(name, detail if detail in DETAILS else "major", desc.strip(), tuple(mates)))
     names = {p.name for p in parts}
     for p in parts:
