@@ -8,6 +8,8 @@ fixer). Its reply reads::
     - [HIGH] wheel_lr: floats 20 mm below its bogie; lower the bogie's axle frame by 20 mm.
     - [LOW] mast: a little short against the reference; raise mast_h to about 300 mm.
 
+A defect between two parts (a gap, an overlap, a mate that does not line up) names both,
+``- [HIGH] wheel_lr+bogie_l: ...``, the part to change first; the fixer may edit either.
 ``ISSUES: none`` (or no issue lines) means nothing is left to fix. :func:`parse_critique`
 accepts bullets or numbers, ``part:`` or ``part -`` and any case of the tag, and reports a reply
 with no SUMMARY or with issue lines it cannot read as :class:`CritiqueError`, so the call can be
@@ -27,7 +29,7 @@ SEVERITIES: tuple[Severity, ...] = ("HIGH", "MED", "LOW")
 _SUMMARY_RE = re.compile(r"^\s*\**\s*SUMMARY\s*\**\s*:\s*\**\s*(.+?)\s*$", re.I | re.M)
 _ISSUES_RE = re.compile(r"^\s*\**\s*ISSUES\s*\**\s*:\s*\**\s*(.*)$", re.I | re.M)
 _ISSUE_RE = re.compile(
-    r"^\s*(?:[-*+]|\d+[.)])?\s*\[\s*(HIGH|MED|MEDIUM|LOW)\s*\]\s*`?([A-Za-z0-9_.]+)`?\s*(?::|-|–|—)\s*(.+?)\s*$",
+    r"^\s*(?:[-*+]|\d+[.)])?\s*\[\s*(HIGH|MED|MEDIUM|LOW)\s*\]\s*(`?[A-Za-z0-9_.]+`?(?:\s*\+\s*`?[A-Za-z0-9_.]+`?)?)\s*(?::|-|–|—)\s*(.+?)\s*$",
     re.I)
 _NONE_RE = re.compile(r"^\s*(none|no issues?|nothing( left)?( to fix)?)\.?\s*$", re.I)
 
@@ -38,14 +40,21 @@ class CritiqueError(ProceduraError):
 
 @dataclass(frozen=True)
 class Issue:
-    """One diagnosed defect: severity, the part responsible, a one-sentence fix direction."""
+    """One diagnosed defect: severity, the part responsible, a one-sentence fix direction, and
+    for a defect between two parts the other part (``other``; the fixer may edit either)."""
 
     severity: Severity
     part: str
     fix: str
+    other: str | None = None
+
+    @property
+    def parts(self) -> tuple[str, ...]:
+        """The part to change first, then the other part of a pair defect."""
+        return (self.part,) if self.other is None else (self.part, self.other)
 
     def line(self) -> str:
-        return f"[{self.severity}] {self.part}: {self.fix}"
+        return f"[{self.severity}] {'+'.join(self.parts)}: {self.fix}"
 
 
 @dataclass(frozen=True)
@@ -100,12 +109,16 @@ def parse_critique(text: str, *, parts: set[str] | None = None) -> Critique:
             continue
         tag = im.group(1).upper()
         severity: Severity = "MED" if tag == "MEDIUM" else tag  # type: ignore[assignment]
-        part = im.group(2).split(".")[0]
-        if parts is not None and part not in parts:
-            bad.append(f"{line[:60]} (no part {part!r}; parts: {', '.join(sorted(parts))})")
+        named = [n.strip().strip("`").split(".")[0] for n in im.group(2).split("+")]
+        unknown = [n for n in named if parts is not None and n not in parts]
+        if unknown:
+            bad.append(f"{line[:60]} (no part {unknown[0]!r}; parts: {', '.join(sorted(parts or ()))})")
             continue
-        issues.append(Issue(severity, part, im.group(3)))
+        if len(named) == 2 and named[0] == named[1]:
+            named = named[:1]
+        issues.append(Issue(severity, named[0], im.group(3), named[1] if len(named) == 2 else None))
     if bad:
-        raise CritiqueError("issue lines must read '- [HIGH|MED|LOW] part_name: one-sentence fix'; "
-                            "could not read: " + "; ".join(bad))
+        raise CritiqueError("issue lines must read '- [HIGH|MED|LOW] part_name: one-sentence fix' "
+                            "(a defect between two parts: 'part_a+part_b: ...'); could not read: "
+                            + "; ".join(bad))
     return Critique(summary, tuple(issues))
