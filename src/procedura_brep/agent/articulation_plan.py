@@ -15,7 +15,8 @@ joints they make now) and answers one JSON object (:func:`parse_articulation`)::
 ``velocity``; ``cone`` for spherical); ``promote`` turns a static mate into a revolute or
 prismatic one, which :func:`promotion_refusal` allows only where the evidence supports it;
 ``drive`` must agree with the limits (``velocity`` exactly for a continuous turn). ``links``,
-``base`` and ``wheels`` are the model's reading: the mates and the evidence decide them, so a
+``base`` and ``wheels`` are optional: the mates and the evidence decide them (the request shows
+them), so the model states them only where it reads the assembly differently, and a
 disagreement is recorded as a finding, never applied. Parsing collects every problem at once.
 """
 
@@ -70,7 +71,7 @@ class ArticulationPlan:
     """A parsed articulation reply."""
 
     edits: list[JointEdit]
-    base: str
+    base: str | None = None  # None: the reply leaves it to the tool
     links: list[list[str]] | None = None
     wheels: list[str] | None = None
     raw: dict[str, Any] = field(default_factory=dict)
@@ -177,7 +178,7 @@ def parse_articulation(text: str, model: CompiledModel) -> ArticulationPlan:
             problems.append(f"mate {e.mate} is listed twice")
         seen.add(e.mate)
     base = data.get("base")
-    if base not in BASES:
+    if base is not None and base not in BASES:
         problems.append(f"base must be \"free\" or \"welded\", got {base!r}")
     parts = {p.name for p in model.parts}
     links = data.get("links")
