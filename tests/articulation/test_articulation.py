@@ -86,3 +86,21 @@ def test_explicit_effort_and_velocity_are_kept():
     assert mate_option(m, "effort") == 0.0 and mate_option(m, "velocity") == 0.25
     bare = mate("k", "b", "a", kind="kinematic", mtype="revolute", options={"limits": None})
     assert mate_option(bare, "effort") == TYPES["revolute"].options["effort"].default
+
+
+def test_a_curved_seat_has_the_contact_the_mate_gate_measures(worker):
+    """A saddle on a round tube: the flat face-to-face area sees nothing there (two independent
+    tessellations of one cylinder are not coplanar), so the pair's contact is the seat's bearing
+    area as the mate gate measures it (issue 23: 7.5 mm^2 shown against the gate's 2,694)."""
+    from pathlib import Path
+
+    from procedura_brep.gates.mate_gate import measure
+    from procedura_brep.program import compile_source
+    src = (Path(__file__).parent / "programs" / "saddle.py").read_text()
+    model = compile_source(src, name="saddle", worker=worker)
+    assert model.ok, model.findings
+    gate = measure(model, next(m for m in model.mates if m.name == "saddle_seat")).area_mm2
+    assert gate > 500  # the 30 mm wide saddle bears on about 40 x 20 mm of the tube's top
+    (c,) = mates_evidence(model)["contacts"]
+    assert c["face_mm2"] < 0.05 * gate and c["mates"] == ["saddle_seat"]
+    assert c["area_mm2"] == pytest.approx(gate)

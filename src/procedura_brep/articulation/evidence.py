@@ -8,7 +8,10 @@ the largest eigenvalue.
 
 Contacts: for part pairs whose boxes touch, the face-to-face contact area: coplanar,
 opposite-facing triangles within ``TOL.contact_mm`` are intersected exactly in their plane
-(see :func:`contact_area`).
+(see :func:`contact_area`). That sees flat contact only; where a mate joins the pair, its bearing
+area as the mate gate measures it (:func:`procedura_brep.gates.mate_gate.bearing_area`: curved
+seats too, a saddle on a tube) is the pair's contact when it is larger, so the evidence and the
+mate gate never disagree on a mated seat.
 """
 
 from __future__ import annotations
@@ -122,15 +125,24 @@ def contact_area(a: Mesh, b: Mesh, *, band: float = TOL.contact_mm) -> float:
 
 
 def mates_evidence(model: CompiledModel) -> dict[str, Any]:
-    """``{"parts": {name: {"symmetry": ...}}, "contacts": [{"a", "b", "area_mm2"}]}``."""
+    """``{"parts": {name: {"symmetry": ...}}, "contacts": [{"a", "b", "area_mm2", "face_mm2",
+    "bearing_mm2", "mates"}]}``: ``face_mm2`` the flat face-to-face area, ``bearing_mm2`` the
+    bearing area of the mates joining the pair (``mates``), ``area_mm2`` the larger."""
+    from ..gates.mate_gate import bearing_area
     meshes = {p.name: p.mesh() for p in model.parts}
     boxes = {p.name: bbox(p.shape(), optimal=False) for p in model.parts}
     parts = {n: {"symmetry": symmetry_axis(m)} for n, m in meshes.items()}
+    joined: dict[frozenset[str], list[Any]] = {}
+    for m in model.mates:
+        joined.setdefault(frozenset((m.child, m.parent)), []).append(m)
     contacts = []
     for a, b in itertools.combinations(meshes, 2):
-        if not boxes_touch(boxes[a], boxes[b], TOL.contact_mm):
+        mates = joined.get(frozenset((a, b)), [])
+        if not mates and not boxes_touch(boxes[a], boxes[b], TOL.contact_mm):
             continue
-        area = contact_area(meshes[a], meshes[b])
-        if area > 0:
-            contacts.append({"a": a, "b": b, "area_mm2": area})
+        face = contact_area(meshes[a], meshes[b]) if boxes_touch(boxes[a], boxes[b], TOL.contact_mm) else 0.0
+        bearing = sum(bearing_area(model, m) for m in mates)
+        if max(face, bearing) > 0:
+            contacts.append({"a": a, "b": b, "area_mm2": max(face, bearing), "face_mm2": face,
+                             "bearing_mm2": bearing, "mates": [m.name for m in mates]})
     return {"parts": parts, "contacts": contacts}

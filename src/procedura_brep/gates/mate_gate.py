@@ -258,6 +258,15 @@ def side_of(geo: PartGeometry, frame: np.ndarray) -> float:
     return float((cen - frame[:3, 3]) @ frame[:3, 2])
 
 
+def bearing_area(model: CompiledModel, mate: CompiledMate) -> float:
+    """The registration (bearing) area (mm^2) of ``mate``'s child on its parent, as the gate
+    measures it: the child's body only, within :func:`bearing_radius` of the mate axis."""
+    child, parent = model.part(mate.child), model.part(mate.parent)
+    cg, pg = part_geometry(child), part_geometry(parent)
+    return registration_area(cg, pg, mate.world_frame, mate.nominal,
+                             radius=bearing_radius(mate), mask=body_faces(child, cg))
+
+
 def measure(model: CompiledModel, mate: CompiledMate) -> MateMeasure:
     """Registration area and penetration of one mate, cached by both parts' digests and the frame."""
     child, parent = model.part(mate.child), model.part(mate.parent)
@@ -269,8 +278,7 @@ def measure(model: CompiledModel, mate: CompiledMate) -> MateMeasure:
     if hit is not None:
         return MateMeasure(mate.name, *hit)
     cg, pg = part_geometry(child), part_geometry(parent)
-    area = registration_area(cg, pg, mate.world_frame, mate.nominal,
-                             radius=bearing_radius(mate), mask=body_faces(child, cg))
+    area = bearing_area(model, mate)
     com = common(cg, child.shape(), pg, parent.shape())
     rad, half = region(mate)
     depth = max((s.depth(mate.world_frame) for s in com.solids
