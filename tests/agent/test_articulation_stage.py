@@ -133,8 +133,10 @@ def test_battery_failure_is_fixed_by_one_gated_edit(run):
     assert art["articulation"]["base"] == "welded"
     # the widened limits made B2 fail; the fixer saw the check and set them back
     assert art["battery_first"] == {"passed": False, "failed": ["B2"], "status": "battery_failed"}
-    fixer = art["battery_fixer"]
+    (fixer,) = art["battery_fixer"]  # one round: the battery then passes
     assert fixer["check"] == "B2" and "arm_pivot" in fixer["message"] and fixer["accepted"]
+    assert fixer["round"] == 1 and fixer["failing_after"] == [] and fixer["stop"] == "the battery passes"
+    assert art["battery_last"]["passed"]
     assert report["battery"]["passed"] and report["status"] == "ok"
     program = (out / "program.py").read_text()
     assert "limits=(-45, 45)" in program and "(-80.0, 80.0)" not in program

@@ -1,5 +1,5 @@
 """The articulation stage (DESIGN.md section 5, issue 13 stage 7): evidence, one planning call,
-gated mate edits, the MuJoCo battery, and one battery-fixer call on a failure.
+gated mate edits, the MuJoCo battery, and the battery fixer in rounds on a failure.
 
 1. Geometric evidence (:func:`procedura_brep.articulation.mates_evidence`) and the links and
    joints the mates make now are shown to the model with the program.
@@ -10,10 +10,13 @@ gated mate edits, the MuJoCo battery, and one battery-fixer call on a failure.
    a promotion of a static mate is refused unless the evidence supports it
    (:func:`.articulation_plan.promotion_refusal`). The program stays the one source.
 4. With the battery on, the run directory is built (exports, gates, battery). On a failed check
-   one ``battery_fixer`` call sees the check (id, message, measured values), up to 8 rendered
-   frames of the failing phase and the program, and returns one action (``set_mate``,
-   ``set_param``, ``edit_part`` or ``give_up``), gated the same way. The finish stage then
-   rebuilds (and reruns the battery) only if the program changed.
+   a ``battery_fixer`` call sees the check (id, message, measured values), the other failing
+   checks, the earlier rounds, up to 8 rendered frames of the failing phase and the program,
+   and returns one action (``set_mate``, ``set_param``, ``edit_part`` or ``give_up``), gated
+   the same way; the run directory is rebuilt and the battery rerun. Rounds go on until the
+   battery passes, a round makes no progress (nothing applied, or as many failing checks or
+   more; one that adds failing checks is undone) or :data:`BATTERY_ROUNDS` are spent. The
+   finish stage rebuilds only if the program differs from the last build.
 
 Everything lands in ``report.json``'s ``articulation`` section and in ``history/``.
 """
@@ -45,6 +48,8 @@ FIXER_ACTIONS = ("set_mate", "set_param", "edit_part", "give_up")
 FIXER_ATTEMPTS = 2
 #: Characters of a failing check's measured values shown to the fixer.
 MEASURED_CHARS = 3000
+#: Battery-fixer rounds (fix, rebuild, rerun the battery) at most.
+BATTERY_ROUNDS = 3
 
 
 class Host(Protocol):
@@ -208,18 +213,19 @@ class ArticulationStage:
 
     # battery ---------------------------------------------------------------------------------
 
-    def battery(self, source: str) -> dict[str, Any] | None:
-        """Build the run directory of ``source`` with the battery; the failed check or None."""
+    def battery(self, source: str) -> list[dict[str, Any]]:
+        """Build the run directory of ``source`` with the battery; the failed checks."""
         opts = self.host.options
         self.build = self.host.tools.final_build(source, self.host.out_dir, simulate=True,
                                                  formats=opts.formats)
         self.built_source = source
         bat = self.build.report.get("battery") or {}
         failed = [c for c in bat.get("checks", []) if not c.get("passed") and not c.get("skipped")]
-        self.report["battery_first"] = {"passed": bool(bat.get("passed", False)) if bat else None,
-                                        "failed": [c.get("id") for c in failed],
-                                        "status": self.build.status}
-        return failed[0] if failed else None
+        verdict = {"passed": bool(bat.get("passed", False)) if bat else None,
+                   "failed": [c.get("id") for c in failed], "status": self.build.status}
+        self.report.setdefault("battery_first", verdict)
+        self.report["battery_last"] = verdict
+        return failed
 
     def frames(self, check: dict[str, Any]) -> list[Image]:
         """Up to 8 frames of the failing phase (the battery's own, else drawn again here),
@@ -245,22 +251,32 @@ class ArticulationStage:
             images.append(Image(data, f"{check.get('id')}_{k}"))
         return images
 
-    def fix(self, source: str, check: dict[str, Any], art: Articulation | None) -> str:
-        """One battery-fixer call and its gated edit; returns the (possibly edited) program."""
+    def fix(self, source: str, failed: list[dict[str, Any]], art: Articulation | None,
+            rounds: list[dict[str, Any]] | None = None) -> tuple[str, dict[str, Any]]:
+        """One battery-fixer call on the first failed check (the others listed) and its gated
+        edit; returns the (possibly edited) program and the round's report row. ``rounds``: the
+        earlier rounds, told to the fixer."""
+        check = failed[0]
         images = self.frames(check)
         measured = json.dumps(check.get("measured", {}), default=str)[:MEASURED_CHARS]
         joints = "\n".join(f"- {j.name}: {j.type}, {j.parent} -> {j.child}, limits "
                            f"{j.mate.options.get('limits')}" for j in (art.joints if art else []))
+        others = "\n".join(f"- {c.get('id')} ({c.get('name')}): {str(c.get('message', ''))[:300]}"
+                           for c in failed[1:]) or "- none"
+        earlier = "\n".join(_round_line(r) for r in rounds or []) or "- none (this is the first round)"
         user = (template("battery_fixer_user").replace("{prompt}", self.host.prompt)
                 .replace("{check}", f"{check.get('id')} ({check.get('name')})")
                 .replace("{message}", str(check.get("message", ""))).replace("{measured}", measured)
                 .replace("{limits}", json.dumps(check.get("limits", {}), default=str))
+                .replace("{others}", others).replace("{rounds}", earlier)
+                .replace("{round}", str(len(rounds or []) + 1)).replace("{max_rounds}", str(BATTERY_ROUNDS))
                 .replace("{joints}", joints or "- none").replace("{frames}", str(len(images)))
                 .replace("{program}", source))
         msgs = [Message.user(user, *images)]
-        row: dict[str, Any] = {"check": check.get("id"), "message": check.get("message"),
+        row: dict[str, Any] = {"round": len(rounds or []) + 1, "check": check.get("id"),
+                               "message": check.get("message"),
+                               "failing_before": [c.get("id") for c in failed],
                                "frames": [f"history/articulation/{i.name}.png" for i in images]}
-        self.report["battery_fixer"] = row
         action = None
         for _ in range(FIXER_ATTEMPTS):
             text = self.host._call("battery_fixer", template("battery_fixer_system"), msgs, max_tokens=8000)
@@ -272,23 +288,58 @@ class ArticulationStage:
         row["action"] = action
         if action is None:
             row.update(accepted=False, reason="no readable action")
-            return source
+            return source, row
         if action["action"] == "give_up":
             row.update(accepted=False, reason=f"give_up: {action.get('reason', '')}")
-            return source
+            return source, row
         try:
             new = self._fixer_source(source, action)
         except (EditError, ProceduraError) as exc:
             row.update(accepted=False, reason=str(exc))
-            return source
+            return source, row
         model, why = self.gate(source, new)
         row.update(accepted=model is not None, **({"reason": why} if why else {}))
-        self.host.progress("articulation", f"battery fixer {action['action']}: "
+        self.host.progress("articulation", f"battery fixer round {row['round']} {action['action']}: "
                            + ("applied" if model is not None else f"refused ({why})"))
         if model is None:
-            return source
+            return source, row
         self._history(new, f"battery_fixer-{action['action']}")
-        return new
+        return new, row
+
+    def fix_rounds(self, source: str, failed: list[dict[str, Any]], art: Articulation | None) -> str:
+        """The battery fixer in rounds (issue 23.6): fix, rebuild, rerun the battery, until it
+        passes, a round makes no progress (no change applied, or as many failing checks or
+        more: a round that adds failing checks is undone) or :data:`BATTERY_ROUNDS` are spent.
+        Each round is a row of ``report["battery_fixer"]``."""
+        rounds: list[dict[str, Any]] = self.report.setdefault("battery_fixer", [])
+        while failed and len(rounds) < BATTERY_ROUNDS:
+            new, row = self.fix(source, failed, art, rounds)
+            rounds.append(row)
+            if new == source:
+                row["stop"] = "no change applied"
+                break
+            after = self.battery(new)
+            row["failing_after"] = [c.get("id") for c in after]
+            if len(after) > len(failed):
+                row["stop"] = (f"no progress: {len(after)} failing checks after the edit, "
+                               f"{len(failed)} before; the edit is undone")
+                self.host.progress("articulation", f"battery fixer round {row['round']}: {row['stop']}")
+                break  # the program before the edit ships (the finish rebuilds it)
+            source = new
+            try:
+                art = articulate(self._compile(source))
+            except (ArticulationError, ProceduraError):
+                pass
+            if after and len(after) == len(failed):
+                row["stop"] = f"no progress: still {len(after)} failing check(s)"
+                break
+            failed = after
+        else:
+            if failed and rounds:
+                rounds[-1]["stop"] = f"the round bound ({BATTERY_ROUNDS}) is reached"
+        if rounds and not failed:
+            rounds[-1]["stop"] = "the battery passes"
+        return source
 
     def _fixer_source(self, source: str, action: dict[str, Any]) -> str:
         if action["action"] == "set_param":
@@ -334,9 +385,19 @@ class ArticulationStage:
             self.report["articulation"] = summary(art)
         if self.host.options.simulate:
             failed = self.battery(source)
-            if failed is not None:
-                source = self.fix(source, failed, art)
+            if failed:
+                source = self.fix_rounds(source, failed, art)
         return source
+
+
+def _round_line(row: dict[str, Any]) -> str:
+    """One earlier battery-fixer round, as the next round's fixer is told it."""
+    act = row.get("action") or {}
+    what = json.dumps(act, default=str)[:300] if act else "no readable action"
+    verdict = "applied" if row.get("accepted") else f"refused ({row.get('reason', '')})"
+    after = row.get("failing_after")
+    then = f"; the battery then failed {', '.join(map(str, after)) or 'nothing'}" if after is not None else ""
+    return f"- round {row.get('round')}: {row.get('check')} failed; {what}: {verdict}{then}"
 
 
 def summary(art: Articulation) -> dict[str, Any]:
