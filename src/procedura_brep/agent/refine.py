@@ -84,6 +84,7 @@ def refine(host: Host, source: str, *, intro: str, max_edits: int, max_actions: 
     session = RefineSession(bench, source, max_edits=max_edits, max_actions=max_actions)
     system = (template("fixer_system").replace("{views}", ", ".join(VIEWS)).replace("{edits}", str(max_edits)))
     msgs: list[Message] = [Message.user(intro, *host._refs())]
+    shown: list[int] = []  # the messages that carry rendered views (only the newest keeps them)
     while not session.done:
         text = host._call(roles[0], system, msgs, max_tokens=8000)
         msgs.append(Message.assistant(text))
@@ -102,6 +103,9 @@ def refine(host: Host, source: str, *, intro: str, max_edits: int, max_actions: 
         images = bench.last_images if action.name == "render" and step.ok else []
         seen = (f"\nViews{_named(images)}. Colour legend: {bench.last_legend}"
                 if images else "")  # the fixer's images named and keyed, as the critic's
+        if images:
+            shown = _omit_views(msgs, shown)
+            shown.append(len(msgs))
         msgs.append(Message.user(step.observation + seen, *images))
         host.progress(stage, f"{action.name}: {step.observation.splitlines()[0][:120]}")
     report = {
@@ -112,6 +116,18 @@ def refine(host: Host, source: str, *, intro: str, max_edits: int, max_actions: 
     if allowed is not None:
         report["allowed_parts"] = sorted(bench.allowed or ())
     return session.source, report
+
+
+def _omit_views(msgs: list[Message], shown: list[int]) -> list[int]:
+    """Drop the images of the earlier render observations ``shown`` (indices into ``msgs``):
+    each keeps its text and a note of how many views it had, so a conversation sends only the
+    newest render's images (issue 23.6: every call resent every earlier render)."""
+    for i in shown:
+        m = msgs[i]
+        if m.images:
+            msgs[i] = Message.user(f"{m.text}\n({len(m.images)} earlier view(s) omitted: a newer "
+                                   "render follows)")
+    return []
 
 
 def _named(views: list[Any]) -> str:
