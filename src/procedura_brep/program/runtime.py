@@ -358,7 +358,12 @@ def _eval_part(b: _Build, decl: registry.PartDecl, params: dict[str, Any], glb: 
         if not vol > 0:
             raise ProgramFormatError(f"the solid is empty (volume {vol:g} mm^3)")
         if not kernel.is_valid(solid.wrapped):
-            raise ProgramFormatError("the solid is not a valid B-rep (BRepCheck failed)")
+            from .validity import invalid_origin
+            origin = invalid_origin(decl.fn, glb)
+            what = origin.text() if origin else "no traced operation returned it (an untraced constructor?)"
+            b.fail("part-exception", f"part {decl.name}: the solid is not a valid B-rep (BRepCheck "
+                   f"failed): {what}", part=decl.name, line=(origin and origin.line) or decl.line)
+            return
         b.figures[decl.name] = fig
         b.solids[decl.name] = solid
     except BaseException as exc:  # noqa: BLE001
