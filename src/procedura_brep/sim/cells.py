@@ -69,32 +69,57 @@ def _triangles(face, o) -> np.ndarray:
     return pts[idx]
 
 
+#: A cell grid of at most this many cells is marked in a flat boolean array (one pass, no
+#: sort); a larger one (a huge part at fine cells) falls back to sorting the cell codes.
+MAX_GRID = 1 << 26
+#: The most points laid in one batch (bounds the memory of one batch).
+BATCH_POINTS = 1 << 20
+
+
 def _cells(tris: np.ndarray, h: float, cell: float) -> np.ndarray:
     """Integer keys (n, 3) of the cells of side ``cell`` holding points laid on triangles
-    (n, 3, 3) so that no surface point is further than ``h`` from one."""
+    (n, 3, 3) so that no surface point is further than ``h`` from one (sorted as their codes).
+
+    Each triangle with an edge longer than ``h`` gets a barycentric grid of ``n + 1`` points a
+    side (``n = ceil(longest edge / h)``); the points of every triangle with one ``n`` are laid
+    together, a coordinate at a time (one matrix product each), and their cells marked in a
+    grid spanning the triangles' box."""
     if not len(tris):
         return np.zeros((0, 3), dtype=np.int64)
     edge = np.max(np.linalg.norm(tris - np.roll(tris, 1, axis=1), axis=2), axis=1)
     subdiv = np.clip(np.ceil(edge / h).astype(int), 1, MAX_SUBDIV)
     lo = np.floor(tris.reshape(-1, 3).min(axis=0) / cell).astype(np.int64) - 1
     span = np.floor(tris.reshape(-1, 3).max(axis=0) / cell).astype(np.int64) - lo + 2
+    total = int(np.prod(span))
+    grid = np.zeros(total, dtype=bool) if total <= MAX_GRID else None
+    found: list[np.ndarray] = []
 
-    def codes(pts: np.ndarray) -> np.ndarray:
-        k = np.floor(pts / cell).astype(np.int64) - lo
-        return np.unique((k[:, 0] * span[1] + k[:, 1]) * span[2] + k[:, 2])
+    def mark(xs: np.ndarray, ys: np.ndarray, zs: np.ndarray) -> None:
+        code = np.floor(xs / cell).astype(np.int64) - lo[0]
+        code *= span[1]
+        code += np.floor(ys / cell).astype(np.int64) - lo[1]
+        code *= span[2]
+        code += np.floor(zs / cell).astype(np.int64) - lo[2]
+        if grid is not None:
+            grid[code.ravel()] = True
+        else:
+            found.append(np.unique(code))
 
-    out = [codes(tris.reshape(-1, 3))]
+    verts = tris.reshape(-1, 3)
+    mark(verts[:, 0], verts[:, 1], verts[:, 2])
     for n in np.unique(subdiv):
         if n <= 1:
             continue
         i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
         keep = (i + j) <= n
-        bary = np.column_stack([i[keep], j[keep], n - i[keep] - j[keep]]) / n  # (k, 3)
+        bary_t = np.ascontiguousarray(
+            np.column_stack([i[keep], j[keep], n - i[keep] - j[keep]]).T / n)  # (3, k)
         group = tris[subdiv == n]  # (g, 3, 3)
-        step = max(1, 2_000_000 // max(1, len(bary)))  # bound the memory of one batch
+        step = max(1, BATCH_POINTS // bary_t.shape[1])
         for s in range(0, len(group), step):
-            out.append(codes(np.einsum("kc,gcd->gkd", bary, group[s:s + step]).reshape(-1, 3)))
-    c = np.unique(np.concatenate(out))
+            g = group[s:s + step]
+            mark(g[:, :, 0] @ bary_t, g[:, :, 1] @ bary_t, g[:, :, 2] @ bary_t)  # (g, k) each
+    c = np.flatnonzero(grid) if grid is not None else np.unique(np.concatenate(found))
     kz = c % span[2]
     ky = (c // span[2]) % span[1]
     kx = c // (span[2] * span[1])
@@ -208,37 +233,60 @@ def cell_side(tris: np.ndarray, cell: float = TOL.sweep_cell_mm, max_cells: int 
     return max(cell, math.sqrt(area / max_cells), 2.0 * edge / MAX_SUBDIV)
 
 
-def surface(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
-            keep=None) -> tuple[np.ndarray, float]:
-    """(triangles (n, 3, 3) of the located, meshed ``shape``'s covered faces, world mm; per
-    triangle, how far its exact face may lie from it, mm: the tessellation's linear deflection,
-    or 0 on a plane, which its triangles lie in exactly; per triangle, the axis of its face when
-    it is a cylinder (its chords deviate only across that axis), else zeros): the faces
-    :func:`cover` would cover."""
+@dataclass(frozen=True)
+class Face:
+    """One meshed face of a part, as :func:`surface` reads it: the face, its triangles (n, 3, 3)
+    world mm, how far its exact surface may lie from them (0 on a plane) and its axis when it
+    is a cylinder (else zeros)."""
+
+    face: object
+    tris: np.ndarray
+    dev: float
+    axis: np.ndarray
+
+
+def faces(shape) -> list[Face]:
+    """Every face of the located ``shape``, meshed with the shipped tessellation's settings (a
+    no-op where the shape is already meshed so), with its triangles: read once per part and
+    filtered by :func:`surface` for each joint."""
     from ..kernel import _ocp, mesh_deflection
     o = _ocp()
-    # the shipped tessellation's settings (a no-op where the shape is already meshed so)
     linear = mesh_deflection(shape)
     o["BRepMesh"].BRepMesh_IncrementalMesh(shape, linear, False, TOL.mesh_angular_rad, False)
     from OCP.BRepAdaptor import BRepAdaptor_Surface
     from OCP.GeomAbs import GeomAbs_SurfaceType
-    tris, devs, axes = [], [], []
+    out = []
     exp = o["TopExp"].TopExp_Explorer(shape, o["TopAbs"].TopAbs_FACE)
     while exp.More():
         face = o["TopoDS"].TopoDS.Face(exp.Current())
         exp.Next()
-        if axis is not None and invariant_under_rotation(face, axis[0], axis[1], o):
-            continue
-        if keep is not None and not keep(face, o):
-            continue
-        t = _triangles(face, o)
         surf = BRepAdaptor_Surface(face)
         kind = surf.GetType()
-        tris.append(t)
-        devs.append(np.full(len(t), 0.0 if kind == GeomAbs_SurfaceType.GeomAbs_Plane else float(linear)))
         ax = (np.array(_dir(surf.Cylinder().Axis().Direction()))
               if kind == GeomAbs_SurfaceType.GeomAbs_Cylinder else np.zeros(3))
-        axes.append(np.broadcast_to(ax, (len(t), 3)))
+        out.append(Face(face, _triangles(face, o),
+                        0.0 if kind == GeomAbs_SurfaceType.GeomAbs_Plane else float(linear), ax))
+    return out
+
+
+def surface(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
+            keep=None, meshed: list[Face] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(triangles (n, 3, 3) of the located, meshed ``shape``'s covered faces, world mm; per
+    triangle, how far its exact face may lie from it, mm: the tessellation's linear deflection,
+    or 0 on a plane, which its triangles lie in exactly; per triangle, the axis of its face when
+    it is a cylinder (its chords deviate only across that axis), else zeros): the faces
+    :func:`cover` would cover. ``meshed`` is ``faces(shape)`` when the caller has it."""
+    from ..kernel import _ocp
+    o = _ocp()
+    tris, devs, axes = [], [], []
+    for f in faces(shape) if meshed is None else meshed:
+        if axis is not None and invariant_under_rotation(f.face, axis[0], axis[1], o):
+            continue
+        if keep is not None and not keep(f.face, o):
+            continue
+        tris.append(f.tris)
+        devs.append(np.full(len(f.tris), f.dev))
+        axes.append(np.broadcast_to(f.axis, (len(f.tris), 3)))
     if not tris:
         return np.zeros((0, 3, 3)), np.zeros(0), np.zeros((0, 3))
     return np.vstack(tris), np.concatenate(devs), np.vstack(axes)
@@ -270,5 +318,5 @@ def cover(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
     return cover_of(tris, float(devs.max(initial=0.0)), cell_side(tris, cell, max_cells))
 
 
-__all__ = ["Cover", "cell_side", "cover", "cover_of", "cover_radius", "faces_along",
+__all__ = ["Cover", "Face", "cell_side", "cover", "cover_of", "cover_radius", "faces", "faces_along",
            "invariant_under_rotation", "side_of_motion", "surface"]

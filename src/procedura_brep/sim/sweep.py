@@ -62,7 +62,7 @@ from ..mates.kinds import CONTINUOUS, PRISMATIC, REVOLUTE, Motion
 from ..mates.placement import motion_delta, rigid_inverse, rot_x, rot_z, trans
 from ..program.model import CompiledModel
 from ..gates.geometry import box_pairs
-from .cells import Cover, cell_side, cover_of, cover_radius, faces_along, surface
+from .cells import Cover, Face, cell_side, cover_of, cover_radius, faces, faces_along, surface
 from .contact import Overlap, exact_overlap
 
 log = logging.getLogger(__name__)
@@ -229,6 +229,7 @@ class SweepScene:
         self._extent: dict[tuple[str, bytes], tuple[float, float]] = {}
         self._surface: dict[tuple[str, bytes, bytes], tuple[np.ndarray, np.ndarray, float, np.ndarray]] = {}
         self._pair_cover: dict[tuple, tuple[tuple[Cover, cKDTree | None], tuple[Cover, cKDTree | None]]] = {}
+        self._faces: dict[str, list[Face]] = {}  # each part's meshed faces, read once
         self._pair_near: dict[tuple, tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]] = {}
         self.booleans = 0
         self._joint_start = 0  # self.booleans when the current joint's sweep began
@@ -260,7 +261,9 @@ class SweepScene:
             tag = np.round(u * side, 9).tobytes()
         key = (name, b"" if axis is None else np.round(np.concatenate(axis), 9).tobytes(), tag)
         if key not in self._surface:
-            tris, devs, axes = surface(self.model.part(name).shape(), axis=axis, keep=keep)
+            if name not in self._faces:
+                self._faces[name] = faces(self.model.part(name).shape())
+            tris, devs, axes = surface(None, axis=axis, keep=keep, meshed=self._faces[name])
             self._surface[key] = (tris, devs, cell_side(tris), axes)
         return self._surface[key]
 
