@@ -81,9 +81,23 @@ def test_camera_fit_keeps_the_box_in_frame() -> None:
 def test_part_colours_are_stable_and_distinct() -> None:
     names = [f"part_{i}" for i in range(30)]
     a = part_colors(names)
-    assert a == part_colors(list(reversed(names)))
-    assert len(set(a.values())) == 30
-    assert part_colors(["wheel", "chassis"])["wheel"] == part_colors(["chassis", "wheel"])["wheel"]
+    assert a == part_colors(names) and len(set(a.values())) == 30
+
+
+def test_adding_a_part_never_recolours_the_parts_before_it() -> None:
+    """Issue 23.6: part colours changed between the renders of one staged run (the recorded robot
+    arm's 28 commits recoloured earlier parts at 23 of them). The build order of that run:"""
+    names = ("base_plate base_hub turntable shoulder_bracket upper_arm elbow forearm wrist "
+             "gripper_palm finger_l finger_r base_servo shoulder_servo elbow_servo wrist_servo "
+             "gripper_servo shoulder_cap elbow_cap wrist_cap plate_bolt_fl plate_bolt_fr "
+             "plate_bolt_rl plate_bolt_rr bracket_bolt_fl bracket_bolt_fr bracket_bolt_rl "
+             "bracket_bolt_rr power_button").split()
+    seen: dict[str, tuple[int, int, int]] = {}
+    for k in range(1, len(names) + 1):
+        now = part_colors(names[:k])
+        assert {n: now[n] for n in seen} == seen, names[k - 1]
+        assert len(set(now.values())) == k
+        seen = now
 
 
 @pytest.mark.parametrize("mode", ["parts", "clay", "pbr"])

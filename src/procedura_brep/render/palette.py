@@ -1,9 +1,11 @@
 """Stable, well-separated part colours and the colour legend.
 
-A part's colour comes from a hash of its name into a fixed palette of saturated colours, so a
-given name keeps its colour across runs and edits. Names are placed in sorted-hash order and a
-name whose slot is already taken in this model moves to the next free slot (linear probing over
-an interleaved order), so no two parts of one model share a colour while the palette lasts.
+A part's colour comes from a hash of its name into a fixed palette of saturated colours. Names
+are placed in the order given (the program's part order, which a staged run only appends to),
+and a name whose slot is taken, or too close to a taken colour, moves on to the next free slot
+(probing over an interleaved order), so no two parts of one model share a colour while the
+palette lasts, and adding a part never recolours the parts before it: the renders of one run
+keep each part's colour from its first appearance to the end.
 Beyond :data:`PALETTE` (36 entries) colours repeat in a darker tier; the legend still lists
 every name.
 """
@@ -49,16 +51,17 @@ def _distance(a: RGB, b: RGB) -> float:
 
 
 def part_colors(names: list[str] | tuple[str, ...]) -> dict[str, RGB]:
-    """A distinct palette colour per part name (deterministic, independent of list order).
+    """A distinct palette colour per part name (deterministic; a name's colour depends only on
+    the names before it, so appending a name never changes the others').
 
-    Names are visited in hash order; each takes the first slot, probing from its hashed slot,
+    Names are visited in the order given; each takes the first slot, probing from its hashed slot,
     whose colour is at least a separation threshold from every colour already taken; the
     threshold starts at :data:`MIN_SEPARATION` and relaxes as the palette fills.
     """
     n = len(PALETTE)
     taken: list[int] = []
     out: dict[str, RGB] = {}
-    for name in sorted(set(names), key=lambda s: (_slot(s), s)):
+    for name in dict.fromkeys(names):
         start = _slot(name) % n
         if len(taken) >= n:  # palette exhausted: a darker repeat; the legend still names it
             r, g, b = PALETTE[start]
