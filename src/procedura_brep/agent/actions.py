@@ -8,6 +8,8 @@ calling API is needed)::
     {"action": "diagnose"}                                           the separate critic call
     {"action": "edit_part", "part": "wheel_lr", "reply": "## params ... ## mates ..."}
     {"action": "set_param", "name": "wheel_d", "value": 140}
+    {"action": "add_part", "name": "lead_screw", "what": "12 mm lead screw, 600 mm long, along Y",
+     "mates_to": "frame", "type": "revolute", "nominal": "screw_d"}
     {"action": "compile"}
     {"action": "check_connectivity"}
     {"action": "finish", "verdict": "ok" | "give_up", "reason": "..."}
@@ -16,14 +18,19 @@ calling API is needed)::
 the critic, splices and gates; tests use fakes) and holds the invariants of the paper's refine
 loop (section 3.4):
 
-- a successful ``diagnose`` sets a one-shot latch; exactly one applied edit (``edit_part`` or
-  ``set_param``) consumes it; a refused edit leaves it (the diagnosis still stands, so the
-  fixer can correct its edit); an edit without it is refused;
+- a successful ``diagnose`` sets a one-shot latch; exactly one applied edit (``edit_part``,
+  ``set_param``, ``add_part`` or a rebuild) consumes it; a refused edit leaves it (the
+  diagnosis still stands, so the fixer can correct its edit); an edit without it is refused;
 - ``diagnose`` is refused while the views are stale (rendered before the last change, or none);
 - ``finish(ok)`` is refused while the recompiled program has a visible floater, while the last
   critique has a HIGH issue, or while the last critique predates the last edit, naming them;
   the program is recompiled first when it is stale;
 - ``finish(give_up)`` is never gated;
+- ``add_part`` asks the workbench to build a new part through the build stage's path (its
+  build request, splice, gates, N_vis); it is an edit like the others;
+- a part that cannot be fixed in place is routed back to the build stage: after
+  :data:`REBUILD_AFTER` refused ``edit_part`` of one part the workbench rebuilds it from its
+  build request (once per part, :data:`MAX_REBUILDS` in a session), an edit like the others;
 - only successful edits count against the edit budget; when it is spent, edits are refused and
   the session must finish. A bound on all actions ends a fixer that never finishes.
 
@@ -41,8 +48,13 @@ from typing import Any, Literal, Protocol
 from ..errors import ProceduraError
 from .critic import Critique
 
-ACTIONS: tuple[str, ...] = ("render", "diagnose", "edit_part", "set_param", "compile",
+ACTIONS: tuple[str, ...] = ("render", "diagnose", "edit_part", "set_param", "add_part", "compile",
                             "check_connectivity", "finish")
+#: Refused ``edit_part`` calls of one part after which it is rebuilt from its build request.
+REBUILD_AFTER = 2
+#: Rebuilds in one session (each part at most once).
+MAX_REBUILDS = 2
+_NAME_RE = re.compile(r"[a-z][a-z0-9_]{0,62}")
 MAX_VIEWS = 20
 _FENCE_RE = re.compile(r"```(?:json)?[ \t]*\n(.*?)```", re.S)
 
@@ -105,6 +117,17 @@ def parse_action(text: str, *, view_names: tuple[str, ...]) -> Action:
         value = args.get("value")
         if not isinstance(args.get("name"), str) or isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ActionError('set_param takes "name" (a param) and a numeric "value"')
+    elif name == "add_part":
+        bad = [k for k in ("name", "mates_to", "type", "nominal")
+               if not isinstance(args.get(k), str) or not _NAME_RE.fullmatch(args[k])]
+        what = args.get("what")
+        if bad or not isinstance(what, str) or len(what.strip()) < 8:
+            raise ActionError('add_part takes "name" (a new snake_case part), "what" (what it is: '
+                              'size, aspect, pose against its neighbours), "mates_to" (an existing '
+                              'part), "type" (a mate type) and "nominal" (the param name sizing the '
+                              'mate)' + (f"; bad: {', '.join(bad)}" if bad else ""))
+        if args.get("detail", "major") not in ("silhouette", "major", "sub"):
+            raise ActionError('add_part "detail" is silhouette, major or sub')
     elif name == "finish":
         if args.get("verdict") not in ("ok", "give_up"):
             raise ActionError('finish takes "verdict": "ok" or "give_up"')
@@ -130,6 +153,9 @@ class Workbench(Protocol):
     def edit_part(self, source: str, part: str, reply: str) -> str: ...
 
     def set_param(self, source: str, name: str, value: float) -> str: ...
+
+    # optional: ``add_part(source, args) -> str`` and, with ``can_rebuild`` true,
+    # ``rebuild_part(source, part, reasons) -> str`` (both raise EditRefused)
 
     def compile(self, source: str) -> CompileOutcome: ...
 
@@ -172,6 +198,8 @@ class RefineSession:
     compiled_version: int = -1
     steps: list[Step] = field(default_factory=list)
     verdict: Verdict | None = None
+    refusals: dict[str, list[str]] = field(default_factory=dict)  # refused edit_part reasons, per part
+    rebuilt: list[str] = field(default_factory=list)  # parts routed back to their build request
 
     @property
     def done(self) -> bool:
@@ -219,32 +247,63 @@ class RefineSession:
         self.latch = True
         return self._log("diagnose", True, crit.text())
 
-    def _edit(self, name: str, apply: Any) -> Step:
+    def _apply(self, name: str, apply: Any) -> tuple[bool | None, str]:
+        """Run one gated edit: (True, text) applied; (False, text) refused by the workbench (the
+        diagnosis stands); (None, text) refused by the loop (budget, no diagnosis)."""
         if self.edits >= self.max_edits:
-            return self._log(name, False, f"refused: the edit budget ({self.max_edits}) is spent; "
-                                          "finish with ok or give_up")
+            return None, (f"refused: the edit budget ({self.max_edits}) is spent; "
+                          "finish with ok or give_up")
         if not self.latch:
-            return self._log(name, False, "refused: an edit needs a fresh diagnosis; diagnose first "
-                                          "(one diagnosis allows one edit)")
+            return None, ("refused: an edit needs a fresh diagnosis; diagnose first "
+                          "(one diagnosis allows one edit)")
         try:
             new = apply()
         except EditRefused as exc:  # nothing changed: the diagnosis still stands
-            return self._log(name, False, f"edit refused: {exc}; the diagnosis still allows one edit")
+            return False, f"edit refused: {exc}; the diagnosis still allows one edit"
         self.latch = False  # consumed by the edit that landed
         self._changed(new)
         self.edits += 1
-        renames = getattr(self.bench, "last_renames", {}) if name == "edit_part" else {}
+        renames = getattr(self.bench, "last_renames", {}) if name in ("edit_part", "add_part",
+                                                                       "rebuild_part") else {}
         renamed = ("; helper(s) renamed because the program already has a different helper of "
                    "that name: " + ", ".join(f"{a} -> {b}" for a, b in renames.items()) +
                    " (the part now calls the new name)") if renames else ""
-        return self._log(name, True, f"edit applied ({self.edits}/{self.max_edits} edits){renamed}; "
-                                     "compile, render and diagnose to check it")
+        note = getattr(self.bench, "last_note", "") if name in ("add_part", "rebuild_part") else ""
+        return True, (f"edit applied ({self.edits}/{self.max_edits} edits){renamed}"
+                      + (f"; {note}" if note else "") + "; compile, render and diagnose to check it")
+
+    def _edit(self, name: str, apply: Any) -> Step:
+        ok, text = self._apply(name, apply)
+        return self._log(name, bool(ok), text)
 
     def _do_edit_part(self, args: dict[str, Any]) -> Step:
-        return self._edit("edit_part", lambda: self.bench.edit_part(self.source, args["part"], args["reply"]))
+        part = args["part"]
+        ok, text = self._apply("edit_part", lambda: self.bench.edit_part(self.source, part, args["reply"]))
+        if ok is not False:
+            if ok:
+                self.refusals.pop(part, None)
+            return self._log("edit_part", bool(ok), text)
+        reasons = self.refusals.setdefault(part, [])
+        reasons.append(text.removeprefix("edit refused: ").removesuffix("; the diagnosis still allows one edit"))
+        if (len(reasons) < REBUILD_AFTER or part in self.rebuilt or len(self.rebuilt) >= MAX_REBUILDS
+                or not getattr(self.bench, "can_rebuild", False)):
+            return self._log("edit_part", False, text)
+        # routed back to the stage that made it: the part is rebuilt from its build request
+        self.rebuilt.append(part)
+        done, rebuilt = self._apply("rebuild_part",
+                                    lambda: self.bench.rebuild_part(self.source, part, list(reasons)))
+        text += (f"; {part} could not be fixed in place ({len(reasons)} refused edits), so it goes "
+                 f"back to its build request and is rebuilt: " + rebuilt)
+        return self._log("rebuild_part" if done else "edit_part", bool(done), text)
 
     def _do_set_param(self, args: dict[str, Any]) -> Step:
         return self._edit("set_param", lambda: self.bench.set_param(self.source, args["name"], float(args["value"])))
+
+    def _do_add_part(self, args: dict[str, Any]) -> Step:
+        add = getattr(self.bench, "add_part", None)
+        if add is None:
+            return self._log("add_part", False, "refused: this session cannot add parts")
+        return self._edit("add_part", lambda: add(self.source, dict(args)))
 
     def _do_compile(self, args: dict[str, Any]) -> Step:
         out = self._ensure_compiled()

@@ -96,9 +96,10 @@ def refine(host: Host, source: str, *, intro: str, max_edits: int, max_actions: 
                 session.end("steps")
             msgs.append(Message.user(f"invalid action: {exc}"))
             continue
+        version = session.version
         step = session.run(action)
-        if step.ok and action.name in ("edit_part", "set_param"):
-            write_atomic(host.out_dir / "history" / f"{history_from + session.edits:03d}-{stage}-{action.name}.py",
+        if session.version != version:  # an applied edit (edit_part, set_param, add_part, rebuild)
+            write_atomic(host.out_dir / "history" / f"{history_from + session.edits:03d}-{stage}-{step.action}.py",
                          session.source)
         images = bench.last_images if action.name == "render" and step.ok else []
         seen = (f"\nViews{_named(images)}. Colour legend: {bench.last_legend}"
@@ -113,6 +114,8 @@ def refine(host: Host, source: str, *, intro: str, max_edits: int, max_actions: 
         "diagnoses": [c.text() for c in session.trail],
         "refused": [f"{s.action}: {s.observation}" for s in session.steps if not s.ok],
     }
+    if bench.routed:
+        report["routed"] = bench.routed
     if allowed is not None:
         report["allowed_parts"] = sorted(bench.allowed or ())
     return session.source, report
@@ -151,6 +154,11 @@ class RefineBench:
         self.last_legend = ""
         #: Helper renames the last applied edit_part made (old -> new), for its message.
         self.last_renames: dict[str, str] = {}
+        #: What the last applied add_part or rebuild adds to its message.
+        self.last_note = ""
+        #: One row per add_part or rebuild (routed back to the build stage), for the report.
+        self.routed: list[dict[str, Any]] = []
+        self._refused: dict[str, list[Finding]] = {}  # the last refused edit's findings, per part
         self._models: dict[str, CompiledModel] = {}
         self._outcomes: dict[str, CompileOutcome] = {}
 
@@ -207,11 +215,73 @@ class RefineBench:
         verdict = self.host.tools.gate_part(result.source, part, baseline=self._n_vis(source),
                                             name=self.host.name)
         if not verdict.ok:
+            self._refused[part] = list(verdict.errors)
             raise EditRefused(findings_text(verdict.errors, 6).replace("\n", " "))
         if verdict.model is not None:
             self._models = {result.source: verdict.model}
         self.last_renames = dict(result.renames)
         return result.source
+
+    # routed back to the build stage (issue 23.6) -----------------------------------------------
+
+    @property
+    def can_rebuild(self) -> bool:
+        """Whether a part that cannot be fixed in place may be rebuilt from its build request
+        (a staged run; never a revise, which touches only what the person asked for)."""
+        return self.allowed is None and hasattr(self.host, "rebuild_part")
+
+    def add_part(self, source: str, args: dict[str, Any]) -> str:
+        """Build a new part through the host's build path (its build request, splice, gates,
+        N_vis) and return the program with it; EditRefused when it cannot be added."""
+        from ..mates import TYPES
+        from ..program.splice import program_parts
+        name, partner, mtype = args["name"], args["mates_to"], args["type"]
+        hook = getattr(self.host, "add_part", None)
+        if self.allowed is not None or hook is None:
+            raise EditRefused("this session cannot add parts (a revise changes existing parts only)")
+        try:
+            parts = program_parts(source)
+        except ProceduraError as exc:
+            raise EditRefused(f"the program does not parse: {exc}") from None
+        if name in parts:
+            raise EditRefused(f"part {name} already exists; change it with edit_part")
+        if partner not in parts:
+            raise EditRefused(f"mates_to {partner!r} is not a part; parts: {', '.join(parts)}")
+        if mtype not in TYPES:
+            raise EditRefused(f"type {mtype!r} is not a mate type; use one of {', '.join(TYPES)}")
+        row: dict[str, Any] = {"kind": "add_part", "part": name, "mates_to": partner, "type": mtype,
+                               "what": args["what"]}
+        self.routed.append(row)
+        try:
+            new, note = hook(source, name=name, what=args["what"], partner=partner, mate_type=mtype,
+                             nominal=args["nominal"], detail=args.get("detail", "major"),
+                             baseline=self._n_vis(source))
+        except EditRefused as exc:
+            row.update(accepted=False, reason=str(exc))
+            raise
+        row["accepted"] = True
+        self.last_note, self.last_renames = note, {}
+        return new
+
+    def rebuild_part(self, source: str, part: str, reasons: list[str]) -> str:
+        """Rebuild ``part`` from its build request (its edits in place were refused); a mate
+        that could not be satisfied goes back to the plan's mate: the request says so and the
+        plan takes the mates the rebuilt part declares. EditRefused when the rebuild fails."""
+        hook = getattr(self.host, "rebuild_part", None)
+        if not self.can_rebuild or hook is None:
+            raise EditRefused("this session cannot rebuild parts")
+        mates = sorted({f.mate for f in self._refused.get(part, []) if f.mate})
+        row: dict[str, Any] = {"kind": "rebuild", "part": part, "refused_edits": len(reasons),
+                               "mates": mates}
+        self.routed.append(row)
+        try:
+            new, note = hook(source, part, reasons=reasons, mates=mates, baseline=self._n_vis(source))
+        except EditRefused as exc:
+            row.update(accepted=False, reason=str(exc))
+            raise
+        row.update(accepted=True, note=note)
+        self.last_note, self.last_renames = note, {}
+        return new
 
     def set_param(self, source: str, name: str, value: float) -> str:
         from ..errors import EditError

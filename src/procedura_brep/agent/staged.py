@@ -31,10 +31,10 @@ from ..llm import Client, Image, Message, Request, Settings
 from ..llm.errors import BudgetExceeded
 from ..paths import write_atomic
 from ..program.model import CompiledModel
-from ..program.splice import SpliceError, empty_program, parse_reply, splice
+from ..program.splice import SpliceError, empty_program, parse_reply, replace_part, splice
 from .context import CommittedPart, build_request, captions
 from .materials import materials_stage
-from .plan import Plan, PlanError, PlannedPart, parse_plan
+from .plan import Plan, PlanError, PlannedMate, PlannedPart, parse_plan
 from . import reference as reference_image
 from .prompts import reference, template
 from .reference import Reference
@@ -78,6 +78,22 @@ class StagedOptions:
 
 
 @dataclass
+class _Attempts:
+    """How the attempts at one part ended: ``ok`` with the passing splice; else the last attempt
+    that compiled (``result``/``verdict``, failing) or none, and the last feedback."""
+
+    result: Any
+    verdict: PartVerdict | None
+    attempt: int
+    overhead: float
+    feedback: str | None = None
+
+    @property
+    def ok(self) -> bool:
+        return self.feedback is None and self.verdict is not None and self.verdict.ok
+
+
+@dataclass
 class StagedResult:
     """How a staged run ended."""
 
@@ -116,6 +132,9 @@ class StagedRun:
         self.reference_info: dict[str, Any] = {"source": "file" if image else "none"}
         self.articulation_report: dict[str, Any] = self.state.articulation
         self._prebuilt: tuple[str | None, Any] = (None, None)
+        # refine's view of the plan and the parts it added or rebuilt (applied when it ends)
+        self._refine_plan: Plan | None = None
+        self._refine_commits: dict[str, CommittedPart] = {}
 
     # model calls -----------------------------------------------------------------------------
 
@@ -267,24 +286,53 @@ class StagedRun:
         k = plan.index(part.name) + 1
         t_views = time.perf_counter()
         views, legend = self._views()
-        history: list[Message] = []
-        candidate: tuple[Any, PartVerdict] | None = None
         overhead = time.perf_counter() - t_views  # deterministic work: renders, splice, gates, writes
-        header = empty_program(self.prompt)
+        got = self._attempts(system, plan, part, source=self.state.source, baseline=self.state.baseline,
+                             place=splice, views=views, legend=legend, header=empty_program(self.prompt),
+                             committed=self.state.committed, overhead=overhead)
+        if got.ok:
+            self._commit(got.result, got.verdict, overhead=got.overhead)
+            self.progress("build", f"part {k}/{len(plan.parts)} {part.name}: committed "
+                          f"(attempt {got.attempt})")
+            return
+        if got.result is not None:
+            result, verdict = got.result, got.verdict
+            failing = [f for f in verdict.errors if blocks(f)]
+            if failing:  # it would fail the whole run on the same finding: never committed
+                self._skip(part.name, f"after {self.options.attempts} attempts it still fails the "
+                           f"gates: " + "; ".join(f.message for f in failing[:3]))
+                return
+            warning = "; ".join(f.message for f in verdict.errors[:3])
+            self._commit(result, verdict, overhead=got.overhead, warning=warning)
+            self.progress("build", f"part {k}/{len(plan.parts)} {part.name}: committed with a warning "
+                          f"after {self.options.attempts} attempts ({warning})")
+        else:
+            self._skip(part.name, f"it did not compile in {self.options.attempts} attempts")
+
+    def _attempts(self, system: str, plan: Plan, part: PlannedPart, *, source: str, baseline: int,
+                  place: Callable[..., Any], views: list[Image], legend: str, header: str,
+                  committed: Any, overhead: float = 0.0, history: list[Message] | None = None) -> _Attempts:
+        """The build stage's attempts at one planned part: its build request, the reply spliced
+        into ``source`` by ``place`` (``splice`` for a new part, ``replace_part`` for a rebuilt
+        one), the part's gates against the N_vis ``baseline``, and each failed attempt's
+        measured findings (and renders) fed back, up to ``options.attempts`` calls. Used by the
+        build stage and by refine (a part added or rebuilt, issue 23.6)."""
+        k = plan.index(part.name) + 1
+        history = list(history or [])
+        candidate: tuple[Any, PartVerdict] | None = None
+        feedback = ""
         for attempt in range(1, self.options.attempts + 1):
             req = build_request(step=self.state.step, system=system, prompt=self.prompt, plan=plan,
-                                header=header, committed=self.state.committed, part=part, views=views,
+                                header=header, committed=committed, part=part, views=views,
                                 reference=self.reference, history=history, legend=legend)
             reply = self.client.complete(req)
             self.state.step += 1
             t0 = time.perf_counter()
-            feedback, verdict, result = self._try_part(reply.text, part.name)
+            feedback, verdict, result = self._try_part(reply.text, part.name, source=source,
+                                                       baseline=baseline, place=place)
             if verdict is not None and verdict.compiled:
                 if verdict.ok:
-                    self._commit(result, verdict, overhead=overhead + time.perf_counter() - t0)
-                    self.progress("build", f"part {k}/{len(plan.parts)} {part.name}: committed "
-                                  f"(attempt {attempt})")
-                    return
+                    return _Attempts(result, verdict, attempt, overhead + time.perf_counter() - t0)
                 candidate = (result, verdict)
             self.progress("build", f"part {k}/{len(plan.parts)} {part.name}: attempt {attempt} failed: "
                           f"{feedback.splitlines()[0] if feedback else ''}")
@@ -296,18 +344,8 @@ class StagedRun:
                 f"Part {part.name} did not pass. Fix every problem and reply with all five blocks again:\n"
                 + feedback + note, *retry_views)]
         if candidate is not None:
-            result, verdict = candidate
-            failing = [f for f in verdict.errors if blocks(f)]
-            if failing:  # it would fail the whole run on the same finding: never committed
-                self._skip(part.name, f"after {self.options.attempts} attempts it still fails the "
-                           f"gates: " + "; ".join(f.message for f in failing[:3]))
-                return
-            warning = "; ".join(f.message for f in verdict.errors[:3])
-            self._commit(result, verdict, overhead=overhead, warning=warning)
-            self.progress("build", f"part {k}/{len(plan.parts)} {part.name}: committed with a warning "
-                          f"after {self.options.attempts} attempts ({warning})")
-        else:
-            self._skip(part.name, f"it did not compile in {self.options.attempts} attempts")
+            return _Attempts(candidate[0], candidate[1], self.options.attempts, overhead, feedback)
+        return _Attempts(None, None, self.options.attempts, overhead, feedback)
 
     def _attempt_views(self, verdict: PartVerdict | None, name: str) -> tuple[list[Image], str]:
         """Renders of a failed attempt that compiled, with part ``name``'s origin and frames drawn
@@ -329,17 +367,22 @@ class StagedRun:
                      f"{pair.message[:300]}")
         return images, note
 
-    def _try_part(self, text: str, name: str) -> tuple[str, PartVerdict | None, Any]:
-        """Parse, splice and gate one reply: (feedback, verdict or None, splice result)."""
+    def _try_part(self, text: str, name: str, *, source: str | None = None, baseline: int | None = None,
+                  place: Callable[..., Any] = splice) -> tuple[str, PartVerdict | None, Any]:
+        """Parse, splice (into ``source``, default the committed program) and gate one reply
+        (against ``baseline``, default the committed N_vis): (feedback, verdict or None, splice
+        result)."""
+        source = self.state.source if source is None else source
+        baseline = self.state.baseline if baseline is None else baseline
         try:
             blocks = parse_reply(text)
-            result = splice(self.state.source or empty_program(self.prompt), blocks)
+            result = place(source or empty_program(self.prompt), blocks)
         except SpliceError as exc:
             return f"- {exc}", None, None
         if result.part != name:
             return (f"- the body defines part {result.part!r}; this call writes part {name!r}",
                     None, None)
-        verdict = self.tools.gate_part(result.source, name, baseline=self.state.baseline, name=self.name)
+        verdict = self.tools.gate_part(result.source, name, baseline=baseline, name=self.name)
 
         def where(line: int) -> str:  # a line of the reply's own block, not of the spliced program
             at = result.reply_line(line)
@@ -395,6 +438,7 @@ class StagedRun:
         parts = ", ".join(p.name for p in model.parts) if model else ""
         intro = (f"Object: {self.prompt}\nParts: {parts}\n\nThe program:\n```python\n{self.state.source}```\n\n"
                  "Start by rendering views of the build.")
+        self._refine_plan, self._refine_commits = self.plan, {}
         source, self.refine_report = refine(self, self.state.source, intro=intro,
                                             max_edits=self.options.max_edits,
                                             max_actions=self.options.max_actions,
@@ -403,7 +447,99 @@ class StagedRun:
         if source != self.state.source:
             self.state.source = source
             self._model = None
+        # parts refine added or rebuilt through the build path join the plan and the log
+        if self._refine_plan is not None and self._refine_commits:
+            self.state.plan = self._refine_plan.as_dict()
+            by_name = {c.name: k for k, c in enumerate(self.state.committed)}
+            for name, part in self._refine_commits.items():
+                if name in by_name:
+                    self.state.committed[by_name[name]] = part
+                else:
+                    self.state.committed.append(part)
         self._advance("materials")
+
+    # refine routed back to the build stage (issue 23.6) -----------------------------------------
+
+    def _refine_attempts(self, plan: Plan, part: PlannedPart, source: str, *, baseline: int,
+                         place: Callable[..., Any], note: str) -> _Attempts:
+        """The build stage's attempts at ``part`` from inside refine: its build request over the
+        whole current program (refine's edits included), then the same splice and gates."""
+        system = template("build_system").replace("{reference}", reference())
+        views, legend = [], ""
+        if self.options.feedback:
+            try:
+                model = self.tools.compile(source, self.name)
+                views, legend = self.tools.render(model, list(self.options.views) if self.options.views else None)
+            except ProceduraError:
+                pass
+        return self._attempts(system, plan, part, source=source, baseline=baseline, place=place,
+                              views=views, legend=legend, header=source, committed=(),
+                              history=[Message.user(note)])
+
+    def add_part(self, source: str, *, name: str, what: str, partner: str, mate_type: str,
+                 nominal: str, detail: str, baseline: int) -> tuple[str, str]:
+        """Refine's ``add_part``: a new part planned after the others, mated to ``partner``, built
+        through the build path; (program, note) or EditRefused."""
+        from .actions import EditRefused
+        plan = self._refine_plan
+        if plan is None:
+            raise EditRefused("there is no plan to add a part to (a --no-plan run)")
+        try:
+            new_plan = parse_plan({"parts": [p.as_dict() for p in plan.parts] + [
+                {"name": name, "detail": detail, "description": what,
+                 "mates": [{"partner": partner, "type": mate_type, "nominal": nominal}]}]})
+        except PlanError as exc:
+            raise EditRefused("; ".join(exc.problems)) from None
+        note = (f"Refine adds this part: the reviewer asked for it. The program above is the whole "
+                f"current program; write only the new part {name} ({what}), mated to {partner} "
+                f"({mate_type}, nominal {nominal}), in the five blocks.")
+        got = self._refine_attempts(new_plan, new_plan.part(name), source, baseline=baseline,
+                                    place=splice, note=note)
+        if not got.ok:
+            raise EditRefused(f"{name} was not added: its build failed {got.attempt} attempt(s): "
+                              + " ".join((got.feedback or "").split())[:600])
+        self._refine_plan = new_plan
+        self._refine_commits[name] = CommittedPart(name, got.result.as_reply())
+        return got.result.source, f"part {name} added, mated to {partner} (build attempt {got.attempt})"
+
+    def rebuild_part(self, source: str, name: str, *, reasons: list[str], mates: list[str],
+                     baseline: int) -> tuple[str, str]:
+        """A part refine could not fix in place, rebuilt from its build request (replacing it);
+        a mate that could not be satisfied goes back to the plan's mate: the request says so,
+        and the plan takes the mates the rebuilt part declares. (program, note) or EditRefused."""
+        from .actions import EditRefused
+        plan = self._refine_plan
+        if plan is None or name not in plan.names:
+            raise EditRefused(f"{name} has no build request (it is not in the plan)")
+        part = plan.part(name)
+        note = (f"Part {name} is rebuilt from its build request: {len(reasons)} edits of it in "
+                f"place were refused:\n" + "\n".join(f"- {r[:400]}" for r in reasons[-3:]) +
+                f"\nThe program above holds its current version; reply with all five blocks of "
+                f"{name}: they replace it.")
+        if mates:
+            planned = "; ".join(f"to {m.partner}: {m.type}, nominal {m.nominal}" for m in part.mates)
+            note += (f"\nIts mate(s) {', '.join(mates)} could not be satisfied. The plan's mates for "
+                     f"it: {planned or 'none'}. Declare mates that can be met (another type, or "
+                     f"another earlier part as partner, if a planned one cannot be): the plan "
+                     f"takes the mates you declare.")
+        got = self._refine_attempts(plan, part, source, baseline=baseline, place=replace_part, note=note)
+        if not got.ok:
+            raise EditRefused(f"the rebuild of {name} failed {got.attempt} attempt(s): "
+                              + " ".join((got.feedback or "").split())[:600])
+        done = f"{name} rebuilt (build attempt {got.attempt})"
+        declared = tuple(PlannedMate(m.parent, m.type, m.nominal_name)
+                         for m in (got.verdict.model.mates if got.verdict.model else []) if m.child == name)
+        if mates and declared and declared != part.mates:
+            rows = [p.as_dict() for p in plan.parts]
+            rows[plan.index(name)]["mates"] = [m.as_dict() for m in declared]
+            try:
+                self._refine_plan = parse_plan({"parts": rows})
+                done += "; the plan's mates now read " + "; ".join(
+                    f"to {m.partner}: {m.type}, nominal {m.nominal}" for m in declared)
+            except PlanError as exc:
+                done += f"; the plan keeps its mates ({exc})"
+        self._refine_commits[name] = CommittedPart(name, got.result.as_reply())
+        return got.result.source, done
 
 
     # articulation ----------------------------------------------------------------------------
