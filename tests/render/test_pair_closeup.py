@@ -27,3 +27,25 @@ def test_a_pair_close_up_shows_the_two_parts_where_they_meet():
     assert np.allclose(f.lo, [25, 10, 145], atol=0.2) and np.allclose(f.hi, [45, 30, 165], atol=0.2)
     with pytest.raises(ValueError, match="must name two parts"):
         resolve_focus(model, "handle+nothing")
+
+
+def test_a_close_up_ghosts_the_other_parts_and_never_hides_the_pair():
+    """Issue 23.4: the pair in colour, the rest ghosted. A plate stands in front of the pair (as
+    seen from the front view) and a block beside it: both show only as faded grey, and the pair
+    is drawn whole through the plate."""
+    from procedura_brep.render import render_images
+    from procedura_brep.render.compose import BACKGROUND
+    model = CompiledModel("m", {}, [cpart("column", _box(40, 40, 300)),
+                                    cpart("handle", _box(80, 10, 10), trans(30, 15, 150)),
+                                    cpart("plate", _box(12, 2, 14), trans(38, 5, 148)),
+                                    cpart("block", _box(4, 10, 8), trans(41, 15, 140))], [])
+    alone = np.asarray(render_images(model, ["front"], size=96, focus="handle+column", ghost=False)["front"]).astype(int)
+    ghost = np.asarray(render_images(model, ["front"], size=96, focus="handle+column")["front"]).astype(int)
+    bg = np.array(BACKGROUND["parts"])
+    pair = np.any(alone != bg, axis=2)
+    same = np.all(alone == ghost, axis=2)
+    assert pair.mean() > 0.1 and same[pair].mean() > 0.97  # the pair as drawn alone, through the plate
+    shown = ~pair & ~same  # ghost pixels: greyish, lighter than the ghost grey, never a colour
+    assert shown.mean() > 0.02
+    px = ghost[shown]
+    assert np.abs(px - px.mean(axis=1, keepdims=True)).max() <= 8 and px.min() >= 150

@@ -8,6 +8,7 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from PIL import Image
@@ -33,6 +34,10 @@ CLOSE_UP_NOMINALS: float = 3.0
 """A mate close-up shows a cube of this many nominals (half-side) around the mate origin..."""
 CLOSE_UP_PART_FRACTION: float = 0.25
 """...or this fraction of the larger partner's box diagonal, whichever is larger."""
+GHOST_RGB: RGB = (176, 178, 186)
+"""A close-up's other parts (parts mode) are drawn in this grey..."""
+GHOST_ALPHA: float = 0.4
+"""...and laid over the background at this opacity, never over the parts in focus."""
 
 
 @dataclass
@@ -115,7 +120,7 @@ def _check(mode: str, size: int) -> None:
 def render_images(model: CompiledModel, views: str | list[str] | None = None, *, mode: Mode = "parts",
                   size: int = 512, focus: str | None = None,
                   frames_overlay: bool = False,
-                  frames_of: Sequence[str] = ()) -> dict[str, Image.Image]:
+                  frames_of: Sequence[str] = (), ghost: bool = True) -> dict[str, Image.Image]:
     """Render ``views`` of ``model`` in memory: view name -> RGB PIL image (``size`` square).
 
     Args:
@@ -124,6 +129,9 @@ def render_images(model: CompiledModel, views: str | list[str] | None = None, *,
         mode: ``parts`` (distinct colour per part), ``clay`` (neutral, fixed rig), ``pbr``.
         size: image side in pixels, 32..4096.
         focus: a part or mate name for a close-up (draws only that part / the mate's two parts).
+        ghost: in a close-up in ``parts`` mode, draw the other parts too, ghosted: grey
+            (:data:`GHOST_RGB`), faded into the background (:data:`GHOST_ALPHA`) and never in
+            front of the parts in focus, which stay whole (an x-ray of the pair in its place).
         frames_overlay: draw every mate frame's axes (a close-up always draws its own frames).
         frames_of: parts whose own origin and published frames are drawn as axes at their
             world poses (:func:`part_frames`): X red, Y green, Z blue.
@@ -149,9 +157,16 @@ def render_images(model: CompiledModel, views: str | list[str] | None = None, *,
         frames = list(frames) + [(n, m) for n, m in extra if n not in drawn]
     verts = scene.vertex_array(model, colors, shown)
     cams = [fit_camera(VIEWS[n], lo, hi) for n in names]
+    ghosts: list[Any] = [None] * len(cams)
+    if ghost and shown is not None and mode == "parts" and len(shown) < len(model.parts):
+        grey = {n: (c if n in shown else GHOST_RGB) for n, c in colors.items()}
+        ghosts = list(renderer().draw(scene.vertex_array(model, grey), cams, size, mode))
     out: dict[str, Image.Image] = {}
-    for name, cam, frame in zip(names, cams, renderer().draw(verts, cams, size, mode)):
-        img = Image.fromarray(compose.finish(frame, mode), "RGB")
+    for name, cam, frame, behind in zip(names, cams, renderer().draw(verts, cams, size, mode), ghosts):
+        pixels = compose.finish(frame, mode)
+        if behind is not None:
+            pixels = compose.ghosted(pixels, frame, compose.finish(behind, mode), mode, GHOST_ALPHA)
+        img = Image.fromarray(pixels, "RGB")
         if frames:
             compose.draw_frames(img, cam, frames, length=axis_len)
         out[name] = img

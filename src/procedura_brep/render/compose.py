@@ -52,6 +52,19 @@ def finish(frame: Frame, mode: Mode) -> np.ndarray:
     return ((total + s * s // 2) // (s * s)).astype(np.uint8)
 
 
+def ghosted(focus: np.ndarray, frame: Frame, whole: np.ndarray, mode: Mode, alpha: float) -> np.ndarray:
+    """A close-up's image ``focus`` (its parts alone, from ``frame``) over ``whole`` (every
+    part drawn, the others in a ghost grey) faded to ``alpha`` against the background: where
+    the focus parts cover a pixel they stay as drawn, elsewhere the ghost shows through."""
+    s = SUPERSAMPLE
+    h, w = frame.ids.shape
+    cover = (frame.ids > 0).reshape(h // s, s, w // s, s).mean(axis=(1, 3))[..., None]
+    bg = np.array(BACKGROUND[mode], float)
+    faded = bg + alpha * (whole.astype(float) - bg)
+    out = focus.astype(float) + (1.0 - cover) * (faded - bg)
+    return np.clip(np.rint(out), 0, 255).astype(np.uint8)
+
+
 def coverage(frame: Frame) -> np.ndarray:
     """Part id per output pixel (top-left sample of each block; 0 = background), int32."""
     s = SUPERSAMPLE
