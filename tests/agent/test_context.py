@@ -84,3 +84,37 @@ def test_views_are_named_with_the_side_each_camera_looks_from():
     views = [Image(png(), "front"), Image(png(), "iso_se")]
     assert _named(views) == ", in order: front (from -Y, ortho), iso_se (from +X-Y+Z, ortho)"
     assert _named([Image(png(), "front"), Image(png(), "")]) == ""  # an unnamed image: no claim
+
+
+def _blocks(name: str, body_lines: int) -> str:
+    body = "\n".join([f'@part(detail="major", description="{name}")', f"def {name}():"]
+                     + [f"    x{i} = Box({i + 1}, 1, 1)" for i in range(body_lines)] + ["    return x0"])
+    return (f"## params\n```python\n{name}_d = 10.0  # mm\n```\n## helpers\n```python\n# none\n```\n"
+            f"## body\n```python\n{body}\n```\n## frames\n```python\nframes(\"{name}\", top=Location((0, 0, 1)))\n```\n"
+            f"## mates\n```python\n# none\n```")
+
+
+def test_the_log_cuts_bodies_and_the_tail_shows_the_partners_and_a_sibling_whole():
+    """Issue 23.6: requests grew by every body written so far. The log keeps each part's params,
+    frames and mates; the bodies the new part needs (its partners', a mirror sibling's) come
+    whole with its task."""
+    committed = [CommittedPart(p.name, _blocks(p.name, 40)) for p in PLAN.parts[:5]]
+    req = build_request(step=5, system=SYSTEM, prompt="a rover", plan=PLAN, header="# header",
+                        committed=committed, part=PLAN.parts[5])  # wheel_4, mated to the chassis
+    log, tail = req.messages[1].text, req.messages[2].text
+    assert "x39 = Box(40" not in log and log.count("body of 41 lines, cut here") == 5
+    assert "wheel_0_d = 10.0" in log and 'frames("wheel_2", top=' in log  # the rest stays whole
+    assert "### chassis" in tail and "def chassis():\n    x0 = Box(1, 1, 1)" in tail  # its partner
+    assert "### wheel_3" in tail and "### wheel_0" not in tail  # the latest sibling only
+    assert "x39 = Box(40" in tail
+
+
+def test_a_request_grows_by_a_part_s_interface_not_its_body():
+    sizes = []
+    for n in (2, 9):
+        committed = [CommittedPart(p.name, _blocks(p.name, 100)) for p in PLAN.parts[:n]]
+        req = build_request(step=n, system=SYSTEM, prompt="a rover", plan=PLAN, header="# header",
+                            committed=committed, part=PLAN.parts[-1])  # the mast: chassis partner
+        sizes.append(len(serialise(req)))
+    whole_body = len(_blocks("wheel_0", 100)) - len(_blocks("wheel_0", 0))
+    assert (sizes[1] - sizes[0]) / 7 < 0.25 * whole_body, sizes

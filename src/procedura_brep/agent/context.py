@@ -6,10 +6,16 @@ appending:
 
 1. the system text (rules, the generated API reference, the reply format);
 2. the run's fixed context: the prompt, the reference image, the whole plan;
-3. the program so far as the log of committed parts, in commit order, each exactly as it was
-   spliced (after renames, without repeated params): a new commit only appends to it;
+3. the program so far as the log of committed parts, in commit order, each as it was spliced
+   (after renames, without repeated params) but with its body cut to its signature
+   (:func:`abbreviate`): a new commit only appends to it;
 4. last, what changes every call: this part's slice of the plan (its mates, the parts still to
-   come, its size and pose mandate) and the renders of the build so far.
+   come, its size and pose mandate), the whole bodies of the parts it mates to, and the renders
+   of the build so far.
+
+The plan is sent as one compact JSON line per part. So a request grows by a part's params,
+helpers, frames and mates, not by every body written so far (on the recorded robot arm tape:
+64.2k characters at part 28 before, see docs/agent.md for after).
 
 Retries of one part continue the same conversation (the reply and the measured findings are
 appended), so they share the whole earlier request too. :func:`prefix_ratio` measures it.
@@ -35,16 +41,75 @@ class CommittedPart:
     warning: str = ""  # committed after its attempts ran out: what was still wrong
 
 
+#: The line that stands for a committed part's body in the program log.
+BODY_CUT = "    ...  # body of {n} lines, cut here; shown whole to the parts that mate to it"
+
+
+def _split_body(text: str) -> tuple[str, str, str] | None:
+    """``(before, body code, after)`` of a committed part's five fenced blocks, or None."""
+    head = text.find("## body")
+    if head < 0:
+        return None
+    start = text.find("```python\n", head)
+    end = text.find("\n```", start + 10) if start >= 0 else -1
+    if start < 0 or end < 0:
+        return None
+    return text[:start + 10], text[start + 10:end], text[end:]
+
+
+def abbreviate(text: str) -> str:
+    """A committed part's blocks with its body cut to the decorator and ``def`` line."""
+    split = _split_body(text)
+    if split is None:
+        return text
+    before, code, after = split
+    lines = code.splitlines()
+    k = next((i for i, ln in enumerate(lines) if ln.lstrip().startswith("def ")), None)
+    if k is None or len(lines) - k - 1 <= 1:
+        return text
+    return before + "\n".join(lines[:k + 1] + [BODY_CUT.format(n=len(lines) - k - 1)]) + after
+
+
+def body_of(text: str) -> str:
+    """The body block's code of a committed part (its whole ``@part`` function)."""
+    split = _split_body(text)
+    return split[1] if split else ""
+
+
 def program_log(header: str, committed: Sequence[CommittedPart]) -> str:
-    """The program so far as an append-only log of committed parts."""
+    """The program so far as an append-only log of committed parts, bodies cut."""
     out = ["The program so far. The compiler assembles these blocks, in this order, into one "
-           "five-section program; everything shown compiles.", "```python", header.rstrip(), "```"]
+           "five-section program; everything shown compiles. Each part's body is cut to its "
+           "signature here (its params, helpers, frames and mates are whole); the bodies of the "
+           "parts the next part mates to follow with its task.", "```python", header.rstrip(), "```"]
     for k, c in enumerate(committed, start=1):
         out.append(f"### committed part {k}: {c.name}")
         if c.warning:
             out.append(f"(committed with a warning: {c.warning})")
-        out.append(c.text.rstrip())  # already its five fenced blocks
+        out.append(abbreviate(c.text).rstrip())  # its five fenced blocks
     return "\n".join(out)
+
+
+def _stem(name: str) -> str:
+    """``wheel`` for ``wheel_fl``, ``bolt`` for ``bolt_3``: a name without its last short suffix."""
+    head, _, tail = name.rpartition("_")
+    return head if head and len(tail) <= 3 else name
+
+
+def partner_bodies(part: PlannedPart, committed: Sequence[CommittedPart]) -> str:
+    """The whole bodies of the committed parts ``part`` mates to, and of its latest committed
+    sibling (``wheel_fl`` for ``wheel_fr``: a mirror or a copy is written from it); "" for none."""
+    by_name = {c.name: c for c in committed}
+    stem = _stem(part.name)
+    sibling = next((c.name for c in reversed(committed) if stem != part.name and _stem(c.name) == stem), None)
+    rows = []
+    for name in dict.fromkeys([*part.partners, *([sibling] if sibling else [])]):
+        c = by_name.get(name)
+        code = body_of(c.text) if c else ""
+        if code.strip():
+            rows += [f"### {name}", "```python", code.rstrip(), "```"]
+    return ("The bodies of the parts it mates to" + (f" and of {sibling}, a part like it" if sibling else "")
+            + ":\n" + "\n".join(rows)) if rows else ""
 
 
 def part_slice(plan: Plan, part: PlannedPart) -> str:
@@ -76,10 +141,13 @@ def build_request(*, step: int, system: str, prompt: str, plan: Plan, header: st
                   legend: str = "", settings: Settings | None = None) -> Request:
     """The request for one build call (``history``: earlier attempts at this part)."""
     fixed = (f"Object to build: {prompt}\n\nThe assembly plan (the parts in build order; "
-             f"each mates to earlier parts):\n```json\n{json.dumps(plan.as_dict(), indent=1)}\n```")
+             f"each mates to earlier parts):\n```json\n{plan_json(plan)}\n```")
     msgs = [Message.user(fixed, *([reference] if reference else [])),
             Message.user(program_log(header, committed))]
     tail = part_slice(plan, part)
+    bodies = partner_bodies(part, committed)
+    if bodies:
+        tail += "\n\n" + bodies
     if views:
         names = [img.name for img in views]
         tail += ("\n\nRenders of the build so far, one colour per part" +
@@ -87,6 +155,12 @@ def build_request(*, step: int, system: str, prompt: str, plan: Plan, header: st
                  (f" Views, in order: {captions(names)}." if all(names) else ""))
     msgs.append(Message.user(tail, *views))
     return Request("build", step, system, (*msgs, *history), settings or Settings(max_tokens=8000))
+
+
+def plan_json(plan: Plan) -> str:
+    """The plan as JSON with one line per part."""
+    rows = [json.dumps(p.as_dict(), ensure_ascii=False) for p in plan.parts]
+    return '{"parts": [\n' + ",\n".join(rows) + "\n]}"
 
 
 def captions(names: Sequence[str]) -> str:
