@@ -47,7 +47,7 @@ from ..mates.vocabulary import TYPES
 from ..program.model import CompiledMate, CompiledModel, Finding
 from .common import common
 from .geometry import LRU, PartGeometry, boxes_near, part_geometry
-from .locate import direction_name
+from .locate import describe, direction_name
 from .pieces import body_faces
 from .policy import GateResult, result
 
@@ -72,6 +72,7 @@ class MateMeasure:
     penetration_limit_mm: float
     exact: bool = True
     reason: str = ""
+    point: tuple[float, float, float] | None = None  # world mm, in the deepest overlap
 
     @property
     def seated(self) -> bool:
@@ -281,10 +282,12 @@ def measure(model: CompiledModel, mate: CompiledMate) -> MateMeasure:
     area = bearing_area(model, mate)
     com = common(cg, child.shape(), pg, parent.shape())
     rad, half = region(mate)
-    depth = max((s.depth(mate.world_frame) for s in com.solids
-                 if s.touches(mate.world_frame, rad, half)), default=0.0)
+    near = [s for s in com.solids if s.touches(mate.world_frame, rad, half)]
+    deepest = max(near, key=lambda s: s.depth(mate.world_frame), default=None)
+    depth = 0.0 if deepest is None else deepest.depth(mate.world_frame)
+    point = None if deepest is None else tuple(float(x) for x in deepest.inner_point())
     vals = (area, area_limit(mate.nominal), depth, penetration_limit(mate.fit or {}),
-            com.exact, com.reason)
+            com.exact, com.reason, point)
     _MEASURED.put(key, vals)
     return MateMeasure(mate.name, *vals)
 
@@ -312,7 +315,8 @@ def flipped_hint(model: CompiledModel, mate: CompiledMate) -> str:
             f"bodies must oppose across the mate plane: {blame}")
 
 
-def mate_findings(mate: CompiledMate, m: MateMeasure, hint: str = "") -> list[Finding]:
+def mate_findings(mate: CompiledMate, m: MateMeasure, hint: str = "",
+                  model: CompiledModel | None = None) -> list[Finding]:
     """The findings for one measured mate (empty when it passes); ``hint`` (see
     :func:`flipped_hint`) replaces the generic advice when the mate both hovers and gouges."""
     out = []
@@ -330,11 +334,17 @@ def mate_findings(mate: CompiledMate, m: MateMeasure, hint: str = "") -> list[Fi
     if not m.clean:
         advice = hint if both and hint else (
             f"move the geometry out of {mate.parent} or fix frame {mate.child_frame}")
+        where = ""
+        if m.point is not None:
+            p = np.asarray(m.point, float)
+            where = f" at ({', '.join(f'{x:.1f}' for x in p)}) mm"
+            if model is not None:
+                where += "; there: " + "; ".join(describe(model.part(n), p) for n in (mate.child, mate.parent))
         out.append(Finding(
             "mate-penetration",
-            f"{mate.child} gouges into {mate.parent}: penetration {m.penetration_mm:.3g} mm > "
-            f"{m.penetration_limit_mm:.3g} mm allowed by fit {mate.fit.get('fit', '?')}; "
-            f"{advice}",
+            f"mate {mate.name} ({mate.type}): {mate.child} gouges into {mate.parent}: penetration "
+            f"{m.penetration_mm:.3g} mm > {m.penetration_limit_mm:.3g} mm allowed by fit "
+            f"{mate.fit.get('fit', '?')}{where}; {advice}",
             part=mate.child, mate=mate.name, line=mate.line, value=m.penetration_mm,
             limit=m.penetration_limit_mm, other=mate.parent))
     if not m.exact:
@@ -376,5 +386,5 @@ def mate_gate(model: CompiledModel, *, mates: list[str] | None = None) -> tuple[
         m = measure(model, mate)
         measured[mate.name] = m.as_dict()
         hint = flipped_hint(model, mate) if not m.seated and not m.clean else ""
-        findings.extend(mate_findings(mate, m, hint))
+        findings.extend(mate_findings(mate, m, hint, model))
     return findings, result("mate", findings, measured)

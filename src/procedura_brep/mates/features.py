@@ -121,7 +121,11 @@ def key(d: float, fit: Fit, o: dict[str, Any]) -> Halves:
     length = o.get("length") or 3.0 * d
     g = fit.offset
     male = Box(d - g, length, d)  # half below the mating plane, half in the child
-    female = Box(d + g, length + g, d / 2 + _relief(d) * 0.5, align=TOP)
+    # The keyway reaches up through the key's upper half too: on a curved seat (a key in a bore)
+    # the parent's surface rises above the tangent plane beside the frame, and that crescent
+    # would otherwise hold the key's corners (4 mm key in a 30 mm bore: 0.134 mm deep).
+    depth = d / 2 + _relief(d) * 0.5
+    female = Pos(0, 0, d / 2) * Box(d + g, length + g, depth + d / 2, align=TOP)
     return male, female
 
 
