@@ -284,7 +284,8 @@ class RefineSession:
                 self.refusals.pop(part, None)
             return self._log("edit_part", bool(ok), text)
         reasons = self.refusals.setdefault(part, [])
-        reasons.append(text.removeprefix("edit refused: ").removesuffix("; the diagnosis still allows one edit"))
+        reasons.append(text.removeprefix("edit refused: ")
+                       .removesuffix("; the diagnosis still allows one edit"))
         if (len(reasons) < REBUILD_AFTER or part in self.rebuilt or len(self.rebuilt) >= MAX_REBUILDS
                 or not getattr(self.bench, "can_rebuild", False)):
             return self._log("edit_part", False, text)

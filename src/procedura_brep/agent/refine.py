@@ -158,7 +158,7 @@ class RefineBench:
         self.last_note = ""
         #: One row per add_part or rebuild (routed back to the build stage), for the report.
         self.routed: list[dict[str, Any]] = []
-        self._refused: dict[str, list[Finding]] = {}  # the last refused edit's findings, per part
+        self._refused: dict[str, list[Finding]] = {}  # the refused edits' findings, per part
         self._models: dict[str, CompiledModel] = {}
         self._outcomes: dict[str, CompileOutcome] = {}
 
@@ -215,7 +215,7 @@ class RefineBench:
         verdict = self.host.tools.gate_part(result.source, part, baseline=self._n_vis(source),
                                             name=self.host.name)
         if not verdict.ok:
-            self._refused[part] = list(verdict.errors)
+            self._refused.setdefault(part, []).extend(verdict.errors)  # every refusal's findings
             raise EditRefused(findings_text(verdict.errors, 6).replace("\n", " "))
         if verdict.model is not None:
             self._models = {result.source: verdict.model}

@@ -469,7 +469,8 @@ class StagedRun:
         if self.options.feedback:
             try:
                 model = self.tools.compile(source, self.name)
-                views, legend = self.tools.render(model, list(self.options.views) if self.options.views else None)
+                views, legend = self.tools.render(
+                    model, list(self.options.views) if self.options.views else None)
             except ProceduraError:
                 pass
         return self._attempts(system, plan, part, source=source, baseline=baseline, place=place,
