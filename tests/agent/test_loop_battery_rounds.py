@@ -116,6 +116,11 @@ def test_rounds_go_on_while_each_makes_progress_up_to_the_bound(tmp_path):
     assert "Round 2 of at most 3" in host.requests[1]
     assert "round 1: B1 failed" in host.requests[1] and "the battery then failed B1, B3, B7" in host.requests[1]
     assert "- B2 (B2): B2 failed" in host.requests[0]  # the other failing checks are listed
+    # each round keeps its own frames
+    assert [r["frames"] for r in rounds] == [["history/articulation/B1_0.png"],
+                                             ["history/articulation/B1_r2_0.png"],
+                                             ["history/articulation/B3_r3_0.png"]]
+    assert all((tmp_path / r["frames"][0]).read_bytes() == PNG for r in rounds)
 
 
 def test_rounds_end_when_the_battery_passes(tmp_path):

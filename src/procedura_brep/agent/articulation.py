@@ -227,9 +227,10 @@ class ArticulationStage:
         self.report["battery_last"] = verdict
         return failed
 
-    def frames(self, check: dict[str, Any]) -> list[Image]:
+    def frames(self, check: dict[str, Any], round_no: int = 1) -> list[Image]:
         """Up to 8 frames of the failing phase (the battery's own, else drawn again here),
-        kept under ``history/articulation/``."""
+        kept under ``history/articulation/`` as ``<check>_<k>.png`` (``<check>_r<n>_<k>.png``
+        from round 2 on, so each round's row names its own frames)."""
         out_dir = self.host.out_dir
         keep = out_dir / "history" / "articulation"
         paths = [out_dir / p for p in check.get("frames") or []]
@@ -242,13 +243,14 @@ class ArticulationStage:
                 log.warning("could not draw battery frames: %s", exc)
                 paths = []
         images = []
+        stem = f"{check.get('id')}" + (f"_r{round_no}" if round_no > 1 else "")
         for k, p in enumerate(paths[:8]):
             try:
                 data = p.read_bytes()
             except OSError:
                 continue
-            write_atomic(keep / f"{check.get('id')}_{k}.png", data)
-            images.append(Image(data, f"{check.get('id')}_{k}"))
+            write_atomic(keep / f"{stem}_{k}.png", data)
+            images.append(Image(data, f"{stem}_{k}"))
         return images
 
     def fix(self, source: str, failed: list[dict[str, Any]], art: Articulation | None,
@@ -257,7 +259,7 @@ class ArticulationStage:
         edit; returns the (possibly edited) program and the round's report row. ``rounds``: the
         earlier rounds, told to the fixer."""
         check = failed[0]
-        images = self.frames(check)
+        images = self.frames(check, len(rounds or []) + 1)
         measured = json.dumps(check.get("measured", {}), default=str)[:MEASURED_CHARS]
         joints = "\n".join(f"- {j.name}: {j.type}, {j.parent} -> {j.child}, limits "
                            f"{j.mate.options.get('limits')}" for j in (art.joints if art else []))
