@@ -23,3 +23,31 @@ def test_a_pair_defect_names_both_parts_the_first_to_change_first():
 def test_a_pair_naming_an_unknown_part_is_refused_with_the_format():
     with pytest.raises(CritiqueError, match="part_a\\+part_b.*no part 'sleeve'"):
         parse_critique("SUMMARY: s\nISSUES:\n- [HIGH] tube+sleeve: gap", parts=PARTS)
+
+
+def test_a_revise_without_parts_may_edit_both_parts_of_a_pair_issue():
+    """revise localises to the parts the critic names: a pair issue allows both."""
+    from types import SimpleNamespace
+
+    from procedura_brep.agent.refine import RefineBench
+    model = SimpleNamespace(parts=[SimpleNamespace(name=n) for n in sorted(PARTS)])
+    host = SimpleNamespace(
+        tools=SimpleNamespace(compile=lambda source, name: model), name="m", prompt="a telescope",
+        _refs=lambda: [],
+        _call=lambda role, system, msgs, max_tokens=0: "SUMMARY: s\nISSUES:\n- [HIGH] tube+ring: gap")
+    bench = RefineBench(host, allowed=set())
+    bench.critique("program", [], [])
+    assert bench.allowed == {"tube", "ring"}
+
+
+def test_a_plan_that_leaves_the_base_to_the_tool_records_no_disagreement():
+    from types import SimpleNamespace
+
+    from procedura_brep.agent.articulation import ArticulationStage
+    from procedura_brep.agent.articulation_plan import ArticulationPlan
+    stage = SimpleNamespace(report={"findings": []})
+    art = SimpleNamespace(base="welded", wheels=[], links=[])
+    ArticulationStage.compare(stage, ArticulationPlan([], None), art)
+    assert stage.report["findings"] == []
+    ArticulationStage.compare(stage, ArticulationPlan([], "free"), art)
+    assert stage.report["findings"][0].startswith("base: the plan says free")

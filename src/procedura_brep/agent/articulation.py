@@ -199,7 +199,7 @@ class ArticulationStage:
         """Record where the plan's links, base and wheels differ from what the mates and the
         evidence make (findings; nothing is changed)."""
         out = self.report["findings"]
-        if plan.base != art.base:
+        if plan.base is not None and plan.base != art.base:
             out.append(f"base: the plan says {plan.base}, the articulation makes it {art.base} "
                        f"(the base is free exactly when wheels are found by evidence)")
         if plan.wheels is not None and sorted(plan.wheels) != sorted(art.wheels):

@@ -79,9 +79,10 @@ def body_of(text: str) -> str:
 def program_log(header: str, committed: Sequence[CommittedPart]) -> str:
     """The program so far as an append-only log of committed parts, bodies cut."""
     out = ["The program so far. The compiler assembles these blocks, in this order, into one "
-           "five-section program; everything shown compiles. Each part's body is cut to its "
-           "signature here (its params, helpers, frames and mates are whole); the bodies of the "
-           "parts the next part mates to follow with its task.", "```python", header.rstrip(), "```"]
+           "five-section program; everything shown compiles. A part listed below as a committed "
+           "part has its body cut to its signature (its params, helpers, frames and mates are "
+           "whole); the bodies of the parts the next part mates to follow with its task.",
+           "```python", header.rstrip(), "```"]
     for k, c in enumerate(committed, start=1):
         out.append(f"### committed part {k}: {c.name}")
         if c.warning:

@@ -196,7 +196,7 @@ class RefineBench:
         if crit is None:
             return Critique("the critic's reply was unreadable twice", ())
         if self.localise and self.allowed is not None:
-            self.allowed |= {i.part for i in crit.issues}
+            self.allowed |= {n for i in crit.issues for n in i.parts}
         return crit
 
     def _n_vis(self, source: str) -> int:
