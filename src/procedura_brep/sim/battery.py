@@ -15,6 +15,7 @@ A failed check saves up to 8 frames of its phase under ``renders/sim/``.
 from __future__ import annotations
 
 import logging
+import os
 import shutil
 import tempfile
 import time
@@ -41,35 +42,89 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 ALL_CHECKS: tuple[str, ...] = ("B0", "B1", "B2", "B3", "B4", "B5", "B6", "B7")
+#: The checks that read none of the bundle's files (the model and its articulation only): they
+#: run while a forked child writes the bundle (:class:`_Export`).
+FILELESS: tuple[str, ...] = ("B2", "B3")
 #: Prefix of the temporary bundle directory used when no ``out_dir`` is given (removed after).
 TEMP_PREFIX = "procedura-battery-"
 #: The export formats the battery reads, and the file (relative) that shows each is there.
 NEEDS: dict[str, str] = {"urdf": "urdf", "usd": "model.usda", "mjcf": "model.xml"}
 
 
+class _Export:
+    """The bundle's files being written in a forked child (:class:`procedura_brep.isolate.
+    Limited`) while this process runs the checks that read no file (B2, B3): on two cores the
+    export costs no wall time. :meth:`wait` returns once the files are there; a child that
+    failed is not trusted with the error: the bundle is written again here, so a failure is
+    raised exactly as the serial write raises it."""
+
+    def __init__(self, model: CompiledModel, root: Path, formats: tuple[str, ...],
+                 art: Articulation) -> None:
+        from ..isolate import Limited
+        self.model, self.root, self.formats, self.art = model, root, formats, art
+        self.wait_s = 0.0
+
+        def write(send) -> dict[str, Any]:
+            from ..export.bundle import write_bundle
+            return {"files": sorted(write_bundle(model, root, formats=formats, art=art))}
+        self._child: Any = Limited(write, stage="battery export")
+
+    def wait(self) -> None:
+        from ..isolate import ChildFailure
+        t = time.perf_counter()
+        child, self._child = self._child, None
+        if child is not None:
+            try:
+                child.collect()
+            except ChildFailure as exc:
+                log.warning("the overlapped export failed (%s); writing the bundle here", exc)
+                from ..export.bundle import write_bundle
+                write_bundle(self.model, self.root, formats=self.formats, art=self.art)
+        self.wait_s = time.perf_counter() - t
+
+    def close(self) -> None:
+        """End the child if it still runs (an error or an interrupt in the checks)."""
+        child, self._child = self._child, None
+        if child is not None:
+            child.close()
+
+
+def _cores() -> int:
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
 def _load(source: CompiledModel | str | Path, out_dir: Path | None, exported: bool = False,
-          art: Articulation | None = None
-          ) -> tuple[CompiledModel, Path, bool]:
-    """``(model, bundle root, whether the root is a temp dir this call created)``."""
+          art: Articulation | None = None, overlap: bool = False
+          ) -> tuple[CompiledModel, Path, bool, Articulation | None, _Export | None]:
+    """``(model, bundle root, whether the root is a temp dir this call created, the
+    articulation, the export still being written or None)``. With ``overlap`` (and a second
+    core), a bundle that must be written is written by a forked child (:class:`_Export`)."""
     if isinstance(source, CompiledModel):
         from ..export.bundle import write_bundle
         temp = out_dir is None
         root = out_dir or Path(tempfile.mkdtemp(prefix=TEMP_PREFIX))
         missing = tuple(f for f, rel in NEEDS.items()
                         if not (exported and not temp and (root / rel).exists()))
+        pending = None
         try:
-            if missing:
+            if missing and overlap and _cores() > 1:
+                art = art or articulate(source)  # meshes the parts once, before the fork
+                pending = _Export(source, root, missing, art)
+            elif missing:
                 write_bundle(source, root, formats=missing, art=art)
         except BaseException:
             if temp:
                 shutil.rmtree(root, ignore_errors=True)
             raise
-        return source, root, temp
+        return source, root, temp, art, pending
     path = Path(source)
     if path.is_file():  # a program file: compile, export next to out_dir
         from ..program import compile_source
         model = compile_source(path.read_text(), name=program_name(path))
-        return _load(model, out_dir, art=art)
+        return _load(model, out_dir, art=art, overlap=overlap)
     program = path / "program.py"
     if not program.exists():
         raise FileNotFoundError(f"{path} has no program.py; pass a bundle directory written by "
@@ -79,7 +134,7 @@ def _load(source: CompiledModel | str | Path, out_dir: Path | None, exported: bo
     if not (path / "model.xml").exists():
         from ..export.bundle import write_bundle
         write_bundle(model, path, formats=("urdf", "usd", "mjcf"), art=art)
-    return model, path, False
+    return model, path, False, art, None
 
 
 def _ball_traj(m, joint: str, direction_deg: float, tilt_rad: float) -> list[np.ndarray]:
@@ -245,10 +300,13 @@ def run_battery(source: CompiledModel | str | Path, *, out_dir: str | Path | Non
             the model); every check reads links, joints, wheels and the base from it.
     """
     wanted = tuple(c for c in ALL_CHECKS if checks is None or c in set(checks))
-    model, root, temp = _load(source, Path(out_dir) if out_dir else None, exported, art)
+    model, root, temp, art, pending = _load(source, Path(out_dir) if out_dir else None, exported,
+                                            art, overlap=bool(set(wanted) & set(FILELESS)))
     try:
-        return _run(model, root, wanted, frames and not temp, temp, art)
+        return _run(model, root, wanted, frames and not temp, temp, art, pending)
     finally:
+        if pending is not None:
+            pending.close()
         if temp:
             shutil.rmtree(root, ignore_errors=True)
 
@@ -283,8 +341,11 @@ def run_bundle(model: CompiledModel, root: str | Path, *, checks: Iterable[str] 
 
 
 def _run(model: CompiledModel, root: Path, wanted: tuple[str, ...], frames: bool,
-         temp: bool, art: Articulation | None = None) -> BatteryReport:
-    """The checks of :func:`run_battery` over the bundle at ``root``."""
+         temp: bool, art: Articulation | None = None, pending: _Export | None = None
+         ) -> BatteryReport:
+    """The checks of :func:`run_battery` over the bundle at ``root``; with ``pending`` (the
+    bundle still being written) the checks that read no file (:data:`FILELESS`) run first, and
+    the report lists every check in :data:`ALL_CHECKS` order all the same."""
     import mujoco
     from ..export.mjcf import build_mjcf
     art = art or articulate(model)
@@ -293,7 +354,6 @@ def _run(model: CompiledModel, root: Path, wanted: tuple[str, ...], frames: bool
     if temp:
         report.notes.append("no out_dir: the bundle went to a temporary directory (removed), "
                             "so no failure frames were saved; pass out_dir to keep them")
-    m_file = mujoco.MjModel.from_xml_path(str(root / "model.xml"))
 
     def run(cid: str, fn: Callable[[], CheckResult | tuple[CheckResult, list]], mj=None) -> None:
         if cid not in wanted:
@@ -313,17 +373,29 @@ def _run(model: CompiledModel, root: Path, wanted: tuple[str, ...], frames: bool
         report.checks.append(res)
         report.timings[cid] = res.seconds
 
+    def fileless() -> None:
+        welded = None
+        if "B2" in wanted:
+            welded = build_mjcf(model, art=art.welded(), masses=masses).spec.compile()
+        run("B2", lambda: check_b2(model, art, welded), welded)
+        run("B3", lambda: check_b3(model, art))
+
+    if pending is not None:
+        fileless()
+        pending.wait()
+        report.timings["export_wait"] = pending.wait_s  # the export outlasting B2 and B3
+    m_file = mujoco.MjModel.from_xml_path(str(root / "model.xml"))
     run("B0", lambda: check_b0(art, m_file))
     run("B1", lambda: check_b1(m_file, art), m_file)
-    welded = None
-    if "B2" in wanted:
-        welded = build_mjcf(model, art=art.welded(), masses=masses).spec.compile()
-    run("B2", lambda: check_b2(model, art, welded), welded)
-    run("B3", lambda: check_b3(model, art))
+    if pending is None:
+        fileless()
     wheels = list(art.wheels)
     floor_z = float(m_file.geom("floor").pos[2])
     run("B4", lambda: check_b4(m_file, art, wheels, floor_z), m_file)
     run("B5", lambda: check_b5(art, masses, root / "urdf"))
     run("B6", lambda: check_b6(art, root / "model.usda"))
     run("B7", lambda: check_b7(m_file), m_file)
+    order = {cid: k for k, cid in enumerate(ALL_CHECKS)}
+    report.checks.sort(key=lambda c: order.get(c.id, len(order)))
+    report.timings = {k: report.timings[k] for k in sorted(report.timings, key=lambda k: order.get(k, len(order)))}
     return report
