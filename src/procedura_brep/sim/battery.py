@@ -30,7 +30,7 @@ from ..config import TOL
 from ..findings import Finding
 from ..program.model import CompiledModel
 from . import contact
-from .dynamics import check_b1, check_b4, check_b7, sweep_joint
+from .dynamics import check_b1, check_b4, check_b7, sweep_joints
 from .fidelity import check_b0, check_b5, check_b6
 from .frames import render_frames
 from ..paths import program_name
@@ -161,6 +161,7 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
     floor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
     m.geom_contype[floor] = m.geom_conaffinity[floor] = 0  # the root is welded: no floor
     scene = SweepScene(model, art)
+    swept = sweep_joints(m, art, [d.name for j in art.joints if not j.kind.ball for d in j.dofs()])
     rows, problems, worst_traj, unverified = {}, [], [], []
     worst_reach, worst_pen, worst_sep = 1.0, 0.0, 0.0
     for j in art.joints:
@@ -178,7 +179,7 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
                 if not worst_traj:
                     worst_traj = _ball_traj(m, j.name, *hit.value)
             continue
-        reached = {d.name: sweep_joint(m, art, d.name) for d in j.dofs()}
+        reached = {d.name: swept[d.name] for d in j.dofs()}
         r = reached[j.name] if j.name in reached else None
         hit = scene.sweep(j, extra=(r["qmin"], r["qmax"]) if r else ())
         pen = hit.depth

@@ -367,11 +367,20 @@ def check_b1(m: MjModel, art: Articulation) -> tuple[CheckResult, list[np.ndarra
 
 def _separation(m, d, jid: int) -> float:
     """Distance between a joint's anchor seen from the child and from its parent body."""
-    child = int(m.jnt_bodyid[jid])
-    parent = int(m.body_parentid[child])
-    local = m.body_pos[child] + _rot(m.body_quat[child]) @ m.jnt_pos[jid]
-    from_parent = d.xpos[parent] + d.xmat[parent].reshape(3, 3) @ local
-    return float(np.linalg.norm(from_parent - d.xanchor[jid]))
+    return _Anchor(m, jid)(d)
+
+
+class _Anchor:
+    """:func:`_separation` of one joint, its parent-side anchor (constant) computed once."""
+
+    def __init__(self, m, jid: int) -> None:
+        child = int(m.jnt_bodyid[jid])
+        self.jid, self.parent = int(jid), int(m.body_parentid[child])
+        self.local = m.body_pos[child] + _rot(m.body_quat[child]) @ m.jnt_pos[jid]
+
+    def __call__(self, d) -> float:
+        from_parent = d.xpos[self.parent] + d.xmat[self.parent].reshape(3, 3) @ self.local
+        return float(np.linalg.norm(from_parent - d.xanchor[self.jid]))
 
 
 def _rot(q: np.ndarray) -> np.ndarray:
@@ -514,13 +523,14 @@ def sweep_joint(m: MjModel, art: Articulation, name: str) -> dict[str, Any]:
     d = mujoco.MjData(m)
     dt = m.opt.timestep
     traj, qs, sep = [], [], 0.0
+    separation = _Anchor(m, i)
     if j.drive == "velocity":  # a speed servo (the articulation's drive): spin it
         v = min(SPIN_FRACTION * j.velocity, 2 * math.pi)
         steps = int(SPIN_S / dt)
         for k in range(steps):
             d.ctrl[a] = v
             mujoco.mj_step(m, d)
-            sep = max(sep, _separation(m, d, i))
+            sep = max(sep, separation(d))
             if k % 25 == 0:
                 traj.append(d.qpos.copy())
         turned = float(d.qpos[qadr])
@@ -547,7 +557,7 @@ def sweep_joint(m: MjModel, art: Articulation, name: str) -> dict[str, Any]:
                 q = float(d.qpos[qadr])
                 qs.append(q)
                 far = max(far, sign * q)
-                sep = max(sep, _separation(m, d, i))
+                sep = max(sep, separation(d))
                 if k % 25 == 0:
                     traj.append(d.qpos.copy())
                 k += 1
@@ -569,6 +579,134 @@ def sweep_joint(m: MjModel, art: Articulation, name: str) -> dict[str, Any]:
         out["cause"] = whys[0][0]
         out["why"] = "; ".join(f"towards {j.kind.label(x.target)}: {w}"
                                for x, (_, w) in zip(legs_short, whys))
+    return out
+
+
+def sweep_joints(m: MjModel, art: Articulation, names: list[str]) -> dict[str, dict[str, Any]]:
+    """:func:`sweep_joint` of every 1-DOF joint in ``names``, in fewer simulations: joints that
+    cannot touch each other's motion (:func:`independent_groups`) are driven together, each on
+    its own schedule, in one simulation of the model; a joint that does not come out of it
+    clean (short of ``TOL.sweep_reach``, separated by more than ``TOL.sweep_separation_m``, or
+    any MuJoCo warning in the group) is driven again alone, so every finding, its reason and
+    its frames are those of its own sweep. The rest drive alone, as before."""
+    out: dict[str, dict[str, Any]] = {}
+    for group in independent_groups(m, art, names):
+        if len(group) > 1:
+            together = _sweep_group(m, art, group)
+            for name, x in together.items():
+                if (x["reach"] >= TOL.sweep_reach and x["separation_m"] <= TOL.sweep_separation_m
+                        and not x["warnings"]):
+                    out[name] = x
+        for name in group:
+            if name not in out:
+                out[name] = sweep_joint(m, art, name)
+    return {n: out[n] for n in names}
+
+
+def _static(m: MjModel, body: int) -> bool:
+    """Whether ``body`` is welded to the world (no joint between it and the world body)."""
+    b = int(body)
+    while b != 0:
+        if int(m.body_jntnum[b]) > 0 or int(m.body_mocapid[b]) >= 0:
+            return False
+        b = int(m.body_parentid[b])
+    return True
+
+
+def independent_groups(m: MjModel, art: Articulation, names: list[str]) -> list[list[str]]:
+    """``names`` split into groups whose joints B2 may drive in one simulation: position-driven
+    1-DOF joints (not a cylindrical joint's DOF) whose parent body is welded to the world, so
+    that nothing one of them moves is carried by another's motion or pushes its parent, and
+    whose swept envelopes (a hinge: the ball about its anchor through its subtree's farthest
+    geom box corner; a slide: its subtree's boxes stretched over its range) keep clear of each
+    other's by twice the largest contact margin and a millimetre, so that their subtrees never
+    touch. In a model with a free joint or an equality constraint every joint is alone."""
+    import mujoco
+    singles = [[n] for n in names]
+    if _free_dof(m) is not None or m.neq > 0:
+        return singles
+    jid, aid = _ids(m, art)
+    compound = {d.name for j in art.joints if j.kind.compound for d in j.dofs()}
+    d = mujoco.MjData(m)
+    d.qpos[:] = m.qpos0
+    mujoco.mj_kinematics(m, d)
+    pad = 2.0 * float(m.geom_margin.max(initial=0.0)) + 1e-3
+    groups: list[tuple[list[str], list[tuple[np.ndarray, np.ndarray]]]] = []
+    out: list[list[str]] = []
+    for name in names:
+        i = jid.get(name, -1)
+        dof = _dof(art, name)
+        body = int(m.jnt_bodyid[i]) if i >= 0 else -1
+        if (i < 0 or aid.get(name, -1) < 0 or dof.drive != "position" or name in compound
+                or not _static(m, int(m.body_parentid[body]))):
+            out.append([name])
+            continue
+        corners = _box_corners(m, d, _subtree_geoms(m, subtree_bodies(m, body)))
+        if not len(corners):
+            out.append([name])
+            continue
+        if dof.kind.slides:
+            axis = d.xaxis[i]
+            span = (float(dof.upper) - float(dof.lower)) * 0.05  # an overshoot past the range
+            ends = [corners + axis * (float(dof.lower) - span), corners + axis * (float(dof.upper) + span)]
+            pts = np.vstack([corners, *ends])
+            box = (pts.min(axis=0) - pad, pts.max(axis=0) + pad)
+        else:
+            r = float(np.linalg.norm(corners - d.xanchor[i], axis=1).max())
+            box = (d.xanchor[i] - r - pad, d.xanchor[i] + r + pad)
+        for members, boxes in groups:
+            if all(np.any(box[0] > b[1]) or np.any(b[0] > box[1]) for b in boxes):
+                members.append(name)
+                boxes.append(box)
+                break
+        else:
+            groups.append(([name], [box]))
+    return [members for members, _ in groups] + out
+
+
+def _sweep_group(m: MjModel, art: Articulation, names: list[str]) -> dict[str, dict[str, Any]]:
+    """:func:`sweep_joint`'s position-driven sweep of every joint in ``names`` in one
+    simulation (each on its own range, the same schedule), for :func:`sweep_joints`: reach,
+    extremes, separation and the simulation's warnings (no trajectory and no reason: a joint
+    that needs either is driven again alone)."""
+    import mujoco
+    jid, aid = _ids(m, art)
+    dofs = [_dof(art, n) for n in names]
+    jids = np.array([jid[n] for n in names])
+    acts = np.array([aid[n] for n in names])
+    qadr = m.jnt_qposadr[jids]
+    parents = m.body_parentid[m.jnt_bodyid[jids]]
+    local = np.array([_Anchor(m, int(i)).local for i in jids])
+    lo = np.array([float(x.lower) for x in dofs])
+    hi = np.array([float(x.upper) for x in dofs])
+    zero = np.zeros(len(names))
+    legs = [[(zero, lo, SWEEP_RAMP_S), (lo, lo, SWEEP_HOLD_S)],
+            [(lo, hi, 2 * SWEEP_RAMP_S), (hi, hi, SWEEP_HOLD_S)]]
+    d = mujoco.MjData(m)
+    dt = m.opt.timestep
+    qmin, qmax = np.full(len(names), np.inf), np.full(len(names), -np.inf)
+    sep = np.zeros(len(names))
+    for leg in legs:
+        for start, end, dur in leg:
+            n = max(1, int(dur / dt))
+            for s in range(n):
+                d.ctrl[acts] = start + (end - start) * (s + 1) / n
+                mujoco.mj_step(m, d)
+                q = d.qpos[qadr]
+                qmin, qmax = np.minimum(qmin, q), np.maximum(qmax, q)
+                rot = d.xmat[parents].reshape(-1, 3, 3)
+                gap = d.xpos[parents] + np.einsum("nij,nj->ni", rot, local) - d.xanchor[jids]
+                sep = np.maximum(sep, np.linalg.norm(gap, axis=1))
+    warns = warnings_of(d)
+    out = {}
+    for k, (name, x) in enumerate(zip(names, dofs)):
+        span = hi[k] - lo[k]
+        reach = float((qmax[k] - qmin[k]) / span) if span > 0 else 1.0
+        out[name] = {"reach": reach, "qmin": float(qmin[k]), "qmax": float(qmax[k]),
+                     "separation_m": float(sep[k]), "traj": [], "warnings": warns,
+                     "ramp_s": 2 * SWEEP_RAMP_S,
+                     "ramp_needed_s": span / x.velocity if x.velocity > 0 else None,
+                     "why": None, "cause": None}
     return out
 
 
