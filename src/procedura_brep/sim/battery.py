@@ -154,19 +154,25 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
     """B2: every driven joint reaches >= 97% of its range, its child never leaves its parent by
     more than ``TOL.sweep_separation_m`` (MuJoCo sweep), and moving it adds no exact-solid
     interference thicker than ``TOL.sim_penetration_mm`` anywhere along its range (closed-form
-    samples, :mod:`.sweep`; spherical joints tilted to half and full cone in 8 directions)."""
+    samples, :mod:`.sweep`; spherical joints tilted to half and full cone in 8 directions).
+    The MuJoCo sweeps run first (:func:`.dynamics.sweep_joints`: independent joints together),
+    then the exact ones (:func:`.sweep.sweep_all`: shared with a second process on a second
+    core), each given the values its joint reached."""
     import mujoco
-    from .sweep import SweepScene
+    from .sweep import sweep_all
     m.opt.gravity[:] = 0.0  # the sweep tests range and collisions; gravity is B1's business
     floor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
     m.geom_contype[floor] = m.geom_conaffinity[floor] = 0  # the root is welded: no floor
-    scene = SweepScene(model, art)
     swept = sweep_joints(m, art, [d.name for j in art.joints if not j.kind.ball for d in j.dofs()])
+    # each joint's exact sweep, with the values MuJoCo reached (an overshoot is swept too)
+    hits, booleans = sweep_all(model, art, list(art.joints),
+                               {j.name: (swept[j.name]["qmin"], swept[j.name]["qmax"])
+                                for j in art.joints if j.name in swept})
     rows, problems, worst_traj, unverified = {}, [], [], []
     worst_reach, worst_pen, worst_sep = 1.0, 0.0, 0.0
     for j in art.joints:
         if j.kind.ball:
-            hit = scene.sweep(j)
+            hit = hits[j.name]
             rows[j.name] = {"cone_deg": float(np.degrees(j.upper)),
                             "worst_direction_deg": hit.value[0] if hit.value else None,
                             "worst_tilt_deg": float(np.degrees(hit.value[1])) if hit.value else None,
@@ -181,7 +187,7 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
             continue
         reached = {d.name: swept[d.name] for d in j.dofs()}
         r = reached[j.name] if j.name in reached else None
-        hit = scene.sweep(j, extra=(r["qmin"], r["qmax"]) if r else ())
+        hit = hits[j.name]
         pen = hit.depth
         if r:
             rows[j.name] = {**_reach_row(r), **hit.as_dict()}
@@ -212,7 +218,7 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
             worst_sep = max(worst_sep, x["separation_m"])
         worst_pen = max(worst_pen, pen)
     measured = {"min_reach": worst_reach, "max_new_penetration_mm": worst_pen,
-                "max_separation_m": worst_sep, "booleans": scene.booleans, "joints": rows}
+                "max_separation_m": worst_sep, "booleans": booleans, "joints": rows}
     limits = {"min_reach": TOL.sweep_reach, "max_new_penetration_mm": TOL.sim_penetration_mm,
               "max_separation_m": TOL.sweep_separation_m}
     message = "; ".join(problems) or f"{len(rows)} joints swept"

@@ -48,6 +48,7 @@ the pair and the pose it reached), never a pass and never a failure of parts tha
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from dataclasses import dataclass, field
@@ -690,3 +691,81 @@ def tilt_quat(direction_deg: float, tilt_rad: float) -> np.ndarray:
     phi = math.radians(direction_deg)
     h = tilt_rad / 2
     return np.array([math.cos(h), math.sin(h) * math.cos(phi), math.sin(h) * math.sin(phi), 0.0])
+
+
+def sweep_all(model: CompiledModel, art: Articulation, joints: list[Joint],
+              extra: dict[str, tuple[float, ...]] | None = None, *,
+              parallel: bool = True) -> tuple[dict[str, SweepHit], int]:
+    """``({joint name: its sweep}, exact booleans run)`` of every joint in ``joints``
+    (:meth:`SweepScene.sweep`, with ``extra[name]`` as its MuJoCo overshoot).
+
+    With ``parallel`` and a second core, a forked child (:class:`procedura_brep.isolate.
+    Limited`) shares the work: both processes take the next joint off one queue (a pipe
+    holding the joints' indices) until it is empty, each with its own scene, and the child
+    sends its sweeps back. Every sweep is the same whichever process runs it (a joint's sweep
+    depends on the joint and the model only). A child that fails is not trusted: every joint
+    it took is swept again here."""
+    import os
+    import struct
+    extra = extra or {}
+    scene = SweepScene(model, art)
+    if not parallel or len(joints) < 2 or _cores() < 2:
+        return {j.name: scene.sweep(j, extra=extra.get(j.name, ())) for j in joints}, scene.booleans
+    from ..isolate import ChildFailure, Limited
+    r, w = os.pipe()
+    try:
+        os.write(w, b"".join(struct.pack("<i", k) for k in range(len(joints))))
+    finally:
+        os.close(w)
+
+    def take() -> Joint | None:
+        data = os.read(r, 4)
+        return joints[struct.unpack("<i", data)[0]] if len(data) == 4 else None
+
+    def work(send) -> dict:
+        mine, out = SweepScene(model, art), {}
+        while (j := take()) is not None:
+            out[j.name] = dataclasses.asdict(mine.sweep(j, extra=extra.get(j.name, ())))
+        return {"hits": out, "booleans": mine.booleans}
+
+    hits: dict[str, SweepHit] = {}
+    booleans = 0
+    try:
+        child = Limited(work, stage="battery sweeps")
+        try:
+            while (j := take()) is not None:
+                hits[j.name] = scene.sweep(j, extra=extra.get(j.name, ()))
+            try:
+                got = child.collect()
+                hits.update({n: _hit_from(h) for n, h in got["hits"].items()})
+                booleans = int(got["booleans"])
+            except ChildFailure as exc:
+                log.warning("the sweeps' second process failed (%s); sweeping its joints here", exc)
+        finally:
+            child.close()
+    finally:
+        os.close(r)
+    for j in joints:
+        if j.name not in hits:
+            hits[j.name] = scene.sweep(j, extra=extra.get(j.name, ()))
+    return {j.name: hits[j.name] for j in joints}, booleans + scene.booleans
+
+
+def _hit_from(d: dict) -> SweepHit:
+    """A :class:`SweepHit` from its ``dataclasses.asdict`` sent as JSON (tuples came back as
+    lists)."""
+    d = dict(d)
+    for k in ("pair", "value"):
+        if isinstance(d.get(k), list):
+            d[k] = tuple(d[k])
+    for k in ("skipped_rest", "contact"):
+        d[k] = [tuple(p) for p in d.get(k) or []]
+    return SweepHit(**d)
+
+
+def _cores() -> int:
+    import os
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
