@@ -268,7 +268,7 @@ def test_a_part_still_failing_the_gates_after_its_attempts_is_skipped_not_commit
     retry = [c for c in calls if c["role"] == "build"][3]["request"]["messages"][-1]
     names = [i["name"] for i in retry["images"]]
     assert names == ["iso_se", "iso_nw", "closeup_arm_post_iso_se", "closeup_arm_post_iso_nw"], names
-    assert "close-up of arm and post alone where they meet" in retry["text"]
+    assert "close-up of arm and post where they meet" in retry["text"]
 
 
 def test_the_fixer_is_told_which_view_each_image_is_and_the_colours(lamp_run):

@@ -32,6 +32,8 @@ from .prompts import template
 from .tools import Tools
 
 log = logging.getLogger(__name__)
+#: The views of the close-up a pair finding comes with (the build retries' too).
+PAIR_VIEWS: tuple[str, ...] = ("iso_se", "iso_nw")
 
 
 class Host(Protocol):
@@ -104,6 +106,9 @@ def refine(host: Host, source: str, *, intro: str, max_edits: int, max_actions: 
         images = bench.last_images if action.name == "render" and step.ok else []
         seen = (f"\nViews{_named(images)}. Colour legend: {bench.last_legend}"
                 if images else "")  # the fixer's images named and keyed, as the critic's
+        if action.name == "compile" and not step.ok:  # a pair finding comes with its close-up
+            note, images = bench.pair_close_up(session.source)
+            seen = f"\n{note}" if images else ""
         if images:
             shown = _omit_views(msgs, shown)
             shown.append(len(msgs))
@@ -161,6 +166,8 @@ class RefineBench:
         self._refused: dict[str, list[Finding]] = {}  # the refused edits' findings, per part
         self._models: dict[str, CompiledModel] = {}
         self._outcomes: dict[str, CompileOutcome] = {}
+        #: The first blocking finding between two parts of a compiled program: (a+b, its message).
+        self._pairs: dict[str, tuple[str, str] | None] = {}
 
     def _model(self, source: str) -> CompiledModel:
         if source not in self._models:
@@ -176,15 +183,32 @@ class RefineBench:
         self.last_images, self.last_legend = imgs, legend
         return imgs
 
+    def pair_close_up(self, source: str) -> tuple[str, list[Image]]:
+        """The close-up (the other parts ghosted) of the first blocking finding between two
+        parts of ``source`` as compiled, with a line saying what it shows; ("", []) when the
+        program was not compiled here or has no such finding."""
+        pair = self._pairs.get(source)
+        if not pair:
+            return "", []
+        try:
+            imgs, _ = self.host.tools.render(self._model(source), list(PAIR_VIEWS), close_up=pair[0])
+        except (ProceduraError, ValueError) as exc:
+            log.info("pair close-up refused: %s", exc)
+            return "", []
+        return (f"Close-up of {pair[0].replace('+', ' and ')} where the gates find: {pair[1]} "
+                f"(the two in colour, the other parts ghosted grey){_named(imgs)}."), imgs
+
     def critique(self, source: str, views: list[Any], trail: list[Critique]) -> Critique:
         model = self._model(source)
         parts = {p.name for p in model.parts}
         earlier = "\n\n".join(f"Review {i + 1}:\n{c.text()}" for i, c in enumerate(trail)) or "none"
         task = self.task or f"Object: {self.host.prompt}"
+        note, close = self.pair_close_up(source)
         msgs = [Message.user(f"{task}\nColour legend: {self.last_legend}\n\n"
                              f"The program:\n```python\n{source}```\n\nEarlier reviews:\n{earlier}\n\n"
-                             "The views of the current build follow" + _named(views) + ".",
-                             *self.host._refs(), *views)]
+                             "The views of the current build follow" + _named(views) + "."
+                             + (f"\n{note} Its views follow the others." if close else ""),
+                             *self.host._refs(), *views, *close)]
         crit = None
         for _ in range(2):
             text = self.host._call(self.critic_role, self.critic_system, msgs, max_tokens=2000)
@@ -307,6 +331,8 @@ class RefineBench:
         report = check_model(model, source)
         errs = tuple(f.message for f in blocking(report.findings))
         floaters = tuple(f.message for f in report.gate("connectivity").findings if f.code == "floater")
+        pair = next((f for f in blocking(report.findings) if f.part and f.other), None)
+        self._pairs = {source: (f"{pair.part}+{pair.other}", pair.message) if pair else None}
         self._outcomes = {source: CompileOutcome(not errs, errs, floaters)}
         return self._outcomes[source]
 

@@ -38,7 +38,7 @@ from .plan import Plan, PlanError, PlannedMate, PlannedPart, parse_plan
 from . import reference as reference_image
 from .prompts import reference, template
 from .reference import Reference
-from .refine import findings_text, refine
+from .refine import PAIR_VIEWS, findings_text, refine
 from .review import enforce_review
 from .rundir import RunDir, RunState
 from .tools import PartVerdict, Tools
@@ -49,8 +49,6 @@ DONE_WORD = "DONE"
 #: Views of a failed (but compiled) attempt sent with its retry, the part's origin and frames
 #: drawn as axes: two opposite corners, so an axis hidden behind the body in one shows in the other.
 RETRY_VIEWS: tuple[str, ...] = ("iso_se", "iso_nw")
-#: The close-up views of the two parts of a failed attempt's pair finding (issue 23.4).
-PAIR_VIEWS: tuple[str, ...] = ("iso_se", "iso_nw")
 
 
 class StagedError(ProceduraError):
@@ -358,12 +356,12 @@ class StagedRun:
                 f"origin ('{name} origin') and every frame it publishes drawn as axes at their "
                 f"assembly poses: X red, Y green, Z blue.")
         pair = next((f for f in verdict.errors if f.part and f.other), None)
-        if pair is not None:  # the worst pair finding: the two parts alone, where they meet
+        if pair is not None:  # the worst pair finding: the two in colour where they meet
             focus = f"{pair.part}+{pair.other}"
             close, _ = self.tools.render(verdict.model, list(PAIR_VIEWS), close_up=focus)
             images += [Image(img.png, f"closeup_{pair.part}_{pair.other}_{img.name}") for img in close]
-            note += (f" Then a close-up of {pair.part} and {pair.other} alone where they meet "
-                     f"({captions(PAIR_VIEWS)}; the other parts left out), for: "
+            note += (f" Then a close-up of {pair.part} and {pair.other} where they meet "
+                     f"({captions(PAIR_VIEWS)}; the two in colour, the other parts ghosted grey), for: "
                      f"{pair.message[:300]}")
         return images, note
 
