@@ -13,8 +13,13 @@ program with the part cache off, and a part's time is its function plus its feat
 temporary folder), the same way, and prints both: the before/after figure of a change. The two
 trees take turns run by run.
 
+``--warm`` also starts ``procedura-brep serve`` (a warm compile worker on a private socket) and
+builds through it in the same fresh processes, taking turns with the cold builds: its first run
+compiles the program in the server, later runs find its parts in the server's cache (what a
+``check`` or ``render`` right after a ``build`` sees). The cold builds never use it.
+
 Run: ``python benchmarks/build.py [--runs 3] [--formats step] [--simulate] [--only rover]
-[--before HEAD~1] [--no-parts]``.
+[--before HEAD~1] [--warm] [--no-parts]``.
 """
 
 from __future__ import annotations
@@ -39,7 +44,7 @@ STAGES = ("compile_s", "gates_s", "export_articulate_s", "export_step_s", "expor
 
 
 def cold_build(name: str, formats: str | None, *, simulate: bool = False,
-               src: Path | None = None) -> dict[str, float]:
+               src: Path | None = None, socket: Path | None = None) -> dict[str, float]:
     """One cold build in a fresh process: ``{"wall_s", "imports_s", <report timings>}``."""
     with tempfile.TemporaryDirectory() as out:
         cmd = [sys.executable, "-m", "procedura_brep.cli", "build", str(ROOT / "golden" / name / "program.py"),
@@ -48,9 +53,12 @@ def cold_build(name: str, formats: str | None, *, simulate: bool = False,
             cmd += ["--formats", formats]
         if simulate:
             cmd += ["--simulate"]
-        env = dict(os.environ)
+        env = dict(os.environ, PROCEDURA_BREP_SERVER="off")
         if src is not None:
             env["PYTHONPATH"] = str(src)
+        if socket is not None:  # through the warm server
+            env.pop("PROCEDURA_BREP_SERVER")
+            env["PROCEDURA_BREP_SOCKET"] = str(socket)
         t = time.perf_counter()
         proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
         dt = time.perf_counter() - t
@@ -108,33 +116,62 @@ def main() -> None:
     ap.add_argument("--only", default=None, help="one golden (default: all three)")
     ap.add_argument("--before", default=None, metavar="REV", help="also build with src/ at git REV")
     ap.add_argument("--no-parts", action="store_true", help="skip the warm per-part compile times")
+    ap.add_argument("--warm", action="store_true", help="also build through `procedura-brep serve`")
     args = ap.parse_args()
     names = (args.only,) if args.only else GOLDEN
     with tempfile.TemporaryDirectory() as tmp:
-        trees: list[tuple[str, Path | None]] = [("after", ROOT / "src")]
+        trees: list[tuple[str, Path | None, Path | None]] = [("after", ROOT / "src", None)]
         if args.before:
-            trees.insert(0, (f"before ({args.before})", export_tree(args.before, Path(tmp))))
+            trees.insert(0, (f"before ({args.before})", export_tree(args.before, Path(tmp)), None))
+        server = None
+        if args.warm:
+            sock = Path(tmp) / "srv" / "w.sock"
+            server = start_server(sock)
+            trees.append(("after, warm server", ROOT / "src", sock))
         for name in names:
             if not (ROOT / "golden" / name / "program.py").exists():
                 print(f"{name}: missing")
                 continue
             what = f"formats {args.formats or 'all'}{', battery' if args.simulate else ''}"
-            rows_of: dict[str, list[dict[str, float]]] = {label: [] for label, _ in trees}
+            rows_of: dict[str, list[dict[str, float]]] = {label: [] for label, _, _ in trees}
             for _ in range(args.runs):  # the trees take turns, so drift in the machine hits both
-                for label, src in trees:
-                    rows_of[label].append(cold_build(name, args.formats, simulate=args.simulate, src=src))
-            for label, _ in trees:
+                for label, src, sock in trees:
+                    rows_of[label].append(cold_build(name, args.formats, simulate=args.simulate,
+                                                     src=src, socket=sock))
+            for label, _, _ in trees:
                 rows = rows_of[label]
                 walls = [r["wall_s"] for r in rows]
                 print(f"{name} {label}: cold build median {statistics.median(walls):.2f} s (min "
-                      f"{min(walls):.2f}, {args.runs} runs, {what}); by stage (median s): "
-                      f"{stage_line(rows)}", flush=True)
+                      f"{min(walls):.2f}, {args.runs} runs: {', '.join(f'{w:.2f}' for w in walls)}; "
+                      f"{what}); by stage (median s): {stage_line(rows)}", flush=True)
+            if server is not None:
+                cold = statistics.median(r["wall_s"] for r in rows_of["after"])
+                warm = rows_of["after, warm server"]
+                print(f"{name}: warm server / cold, same run: first build "
+                      f"{warm[0]['wall_s'] / cold:.2f}, later builds "
+                      f"{statistics.median(r['wall_s'] for r in warm[1:] or warm) / cold:.2f}", flush=True)
             if not args.no_parts:
                 per = part_times(name, args.runs)
                 worst = max(per, key=per.get)
                 print(f"{name}: {len(per)} parts, warm per-part compile median "
                       f"{statistics.median(per.values()) * 1000:.0f} ms, max {per[worst] * 1000:.0f} ms "
                       f"({worst})", flush=True)
+        if server is not None:
+            server.terminate()
+            server.wait(10)
+
+
+def start_server(sock: Path) -> subprocess.Popen[str]:
+    """``procedura-brep serve --socket sock``, returned once it listens."""
+    proc = subprocess.Popen([sys.executable, "-m", "procedura_brep.cli", "serve", "--socket", str(sock)],
+                            env=dict(os.environ, PROCEDURA_BREP_SERVER="off"),
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, text=True)
+    deadline = time.monotonic() + 60
+    while not sock.exists():
+        if proc.poll() is not None or time.monotonic() > deadline:
+            raise SystemExit("procedura-brep serve did not start")
+        time.sleep(0.1)
+    return proc
 
 
 if __name__ == "__main__":

@@ -8,6 +8,9 @@ import pytest
 
 # Forbid real model calls for the whole suite (loopback fake servers stay allowed).
 os.environ["PROCEDURA_BREP_NO_NETWORK"] = "1"
+# Never compile through a warm server a developer left running (`procedura-brep serve`): the
+# tests that exercise one start their own on a socket of their own.
+os.environ["PROCEDURA_BREP_SERVER"] = "off"
 
 
 @pytest.fixture(scope="session")

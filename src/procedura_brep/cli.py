@@ -597,6 +597,30 @@ def revise(
 
 @app.command()
 @guarded
+def serve(
+    socket_path: Annotated[Optional[Path], typer.Option("--socket", help="The Unix socket (default: "
+                                                        "$PROCEDURA_BREP_SOCKET, else "
+                                                        "$XDG_RUNTIME_DIR/procedura-brep/worker.sock).")] = None,
+) -> None:
+    """Keep a warm compile worker that later commands reuse (Ctrl-C stops it).
+
+    Any later build, check, render, edit, simulate or generate of this same install connects
+    to it and skips starting its own worker; with no server, or one started from other code,
+    they start their own as always. PROCEDURA_BREP_SERVER=off keeps a command off it."""
+    from .errors import CompileError
+    from .program.server import serve as run
+
+    def ready(path: Path) -> None:
+        typer.echo(f"warm worker listening on {path} (pid {os.getpid()}); Ctrl-C stops it", err=True)
+    try:
+        run(socket_path, ready=ready)
+    except (OSError, CompileError) as exc:
+        _err(f"cannot serve: {exc}")
+        raise typer.Exit(EXIT_FAIL) from None
+
+
+@app.command()
+@guarded
 def doctor(
     model: Annotated[Optional[str], typer.Option("--model", "-m", help="Also check this provider.")] = None,
     base_url: Annotated[Optional[str], typer.Option("--base-url")] = None,

@@ -323,14 +323,59 @@ def _result(reply: dict[str, Any], scratch: str, limits: SandboxLimits, *,
     raise CompileError(f.message, [f])
 
 
+class RemoteWorker(Worker):
+    """A :class:`Worker` whose zygote is a warm server's (``procedura-brep serve``,
+    :mod:`.server`): requests go over its socket, and the result is read and validated here,
+    from this process's own scratch folder, as with a local worker."""
+
+    def __init__(self, conn: Any, cache_dir: str, path: Any) -> None:
+        super().__init__(cache_dir=cache_dir)
+        self._own_cache = False  # the server's, for as long as it runs
+        from .server import _Lines
+        self._conn, self._lines, self.path = conn, _Lines(conn), path
+
+    def start(self) -> "RemoteWorker":
+        return self
+
+    def _ensure_ready(self) -> Any:
+        if self._conn is None:
+            raise CompileError(f"the warm worker at {self.path} went away; run the command "
+                               "again (it starts its own worker when no server answers)")
+        return self._conn
+
+    def _ask(self, proc: Any, req: dict[str, Any]) -> dict[str, Any]:
+        from .server import _send
+        try:
+            _send(proc, {"op": "zygote", "req": req})
+            msg = self._lines.read()
+        except OSError:
+            msg = None
+        if msg is None:
+            self.close()
+            raise CompileError(f"the warm worker at {self.path} went away; run the command "
+                               "again (it starts its own worker when no server answers)")
+        reply = msg.get("reply")
+        return reply if isinstance(reply, dict) else {}
+
+    def close(self) -> None:
+        if self._conn is not None:
+            try:
+                self._conn.close()
+            except OSError:
+                pass
+        self._conn = None
+
+
 _DEFAULT: Worker | None = None
 
 
 def default_worker() -> Worker:
-    """The process-wide worker, started on first use and stopped at exit."""
+    """The process-wide worker: a running warm server's when one answers with this code
+    (:func:`.server.connect`), else a local one started on first use; stopped at exit."""
     global _DEFAULT
     if _DEFAULT is None:
-        _DEFAULT = Worker()
+        from .server import connect
+        _DEFAULT = connect() or Worker()
         atexit.register(_DEFAULT.close)
     return _DEFAULT.start()
 
@@ -348,7 +393,7 @@ def compile_source(source: str, *, name: str = "model", limits: SandboxLimits | 
     return (worker or default_worker()).compile(source, opts)
 
 
-__all__ = ["CompileOptions", "Worker", "compile_source", "default_worker", "clean_env",
+__all__ = ["CompileOptions", "RemoteWorker", "Worker", "compile_source", "default_worker", "clean_env",
            "clean_stale_temp", "kill_default_worker", "refuse_oversized", "replace"]
 
 
