@@ -393,3 +393,23 @@ def test_check_verbose_lists_every_compile_error_after_the_first(tmp_path):
     lines = [l for l in res.stderr.splitlines() if l.startswith(("error:", "  also:"))]
     assert res.exit_code == 2 and len(lines) == 2, res.stderr
     assert lines[0].startswith("error:") and "(+1 more" in lines[0] and lines[1].startswith("  also: part")
+
+
+def test_verbose_after_the_subcommand_is_the_tool_s_own_detail():
+    """Issue 26.4: `-v` works after the subcommand, as the README says, and shows this tool's
+    DEBUG lines, not third-party ones (OpenGL flooded the terminal)."""
+    import subprocess
+    import sys
+
+    from procedura_brep.cli import hoist_verbose
+    assert hoist_verbose(["build", "p.py", "-o", "d", "-v"]) == ["-v", "build", "p.py", "-o", "d"]
+    assert hoist_verbose(["check", "--verbose", "p.py", "--", "-v"]) == ["--verbose", "check", "p.py", "--", "-v"]
+    code = ("import logging, sys\nfrom procedura_brep.cli import main_callback\nmain_callback(True)\n"
+            "logging.getLogger('OpenGL.acceleratesupport').debug('third party')\n"
+            "logging.getLogger('procedura_brep.x').debug('ours')\n")
+    err = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True).stderr
+    assert "ours" in err and "third party" not in err
+    run = subprocess.run([sys.executable, "-c", "import sys; sys.argv = ['procedura-brep', 'check', "
+                          "'no_such_program.py', '-v']; from procedura_brep.cli import main; main()"],
+                         capture_output=True, text=True)
+    assert run.returncode == 2 and "does not exist" in run.stderr and "No such option" not in run.stderr

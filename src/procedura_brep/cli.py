@@ -112,7 +112,19 @@ def main_callback(verbose: Annotated[bool, typer.Option("--verbose", "-v", help=
     _State.verbose = verbose
     handler = logging.StreamHandler()
     handler.setFormatter(_SafeFormatter("%(levelname)s %(name)s: %(message)s"))
-    logging.basicConfig(level=logging.DEBUG if verbose else logging.WARNING, handlers=[handler])
+    # -v is this tool's own detail: other libraries (OpenGL, MuJoCo, trimesh ...) stay at WARNING
+    logging.basicConfig(level=logging.WARNING, handlers=[handler])
+    logging.getLogger("procedura_brep").setLevel(logging.DEBUG if verbose else logging.WARNING)
+
+
+def hoist_verbose(argv: list[str]) -> list[str]:
+    """``argv`` with every ``-v``/``--verbose`` moved in front of the subcommand, where the
+    option lives, so ``procedura-brep build P -o D -v`` works as the README says. Tokens after a
+    ``--`` are left alone."""
+    end = argv.index("--") if "--" in argv else len(argv)
+    flags = [a for a in argv[:end] if a in ("-v", "--verbose")]
+    rest = [a for a in argv[:end] if a not in ("-v", "--verbose")]
+    return flags + rest + argv[end:]
 
 
 def _read(program: Path) -> str:
@@ -657,6 +669,7 @@ def main() -> None:
     """
     from . import interrupt
     interrupt.install()
+    sys.argv[1:] = hoist_verbose(sys.argv[1:])
     try:
         app()
     except SystemExit as exc:
