@@ -14,6 +14,7 @@ A failed check saves up to 8 frames of its phase under ``renders/sim/``.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import os
 import shutil
@@ -43,7 +44,7 @@ log = logging.getLogger(__name__)
 
 ALL_CHECKS: tuple[str, ...] = ("B0", "B1", "B2", "B3", "B4", "B5", "B6", "B7")
 #: The checks that read none of the bundle's files (the model and its articulation only): they
-#: run while a forked child writes the bundle (:class:`_Export`).
+#: run while a forked child writes the bundle (:class:`_Export`; B3 in that child, after it).
 FILELESS: tuple[str, ...] = ("B2", "B3")
 #: Prefix of the temporary bundle directory used when no ``out_dir`` is given (removed after).
 TEMP_PREFIX = "procedura-battery-"
@@ -53,40 +54,65 @@ NEEDS: dict[str, str] = {"urdf": "urdf", "usd": "model.usda", "mjcf": "model.xml
 
 class _Export:
     """The bundle's files being written in a forked child (:class:`procedura_brep.isolate.
-    Limited`) while this process runs the checks that read no file (B2, B3): on two cores the
-    export costs no wall time. :meth:`wait` returns once the files are there; a child that
-    failed is not trusted with the error: the bundle is written again here, so a failure is
-    raised exactly as the serial write raises it."""
+    Limited`) while this process runs B2, which reads no file: on two cores the export costs
+    no wall time. With ``b3`` the child then runs B3 (the rest scan, which reads no file
+    either) and sends its result back, so it too runs beside B2. :meth:`wait` returns once the
+    files are there, with B3's result or None; a child that failed is not trusted with the
+    error: the bundle is written again here (so a failure is raised exactly as the serial
+    write raises it) and B3 is left to the caller."""
 
     def __init__(self, model: CompiledModel, root: Path, formats: tuple[str, ...],
-                 art: Articulation) -> None:
+                 art: Articulation, b3: bool = False) -> None:
         from ..isolate import Limited
-        self.model, self.root, self.formats, self.art = model, root, formats, art
+        self.model, self.root, self.formats, self.art, self.b3 = model, root, formats, art, b3
         self.wait_s = 0.0
 
         def write(send) -> dict[str, Any]:
             from ..export.bundle import write_bundle
-            return {"files": sorted(write_bundle(model, root, formats=formats, art=art))}
+            out: dict[str, Any] = {"files": sorted(write_bundle(model, root, formats=formats, art=art))}
+            if b3:
+                res, _ = _checked("B3", lambda: check_b3(model, art))
+                out["B3"] = dataclasses.asdict(res)
+            return out
         self._child: Any = Limited(write, stage="battery export")
 
-    def wait(self) -> None:
+    def wait(self) -> CheckResult | None:
+        """Wait for the files; B3's result when the child ran it, else None."""
         from ..isolate import ChildFailure
         t = time.perf_counter()
         child, self._child = self._child, None
+        b3 = None
         if child is not None:
             try:
-                child.collect()
+                got = child.collect()
+                b3 = CheckResult(**got["B3"]) if "B3" in got else None
             except ChildFailure as exc:
                 log.warning("the overlapped export failed (%s); writing the bundle here", exc)
                 from ..export.bundle import write_bundle
                 write_bundle(self.model, self.root, formats=self.formats, art=self.art)
         self.wait_s = time.perf_counter() - t
+        return b3
 
     def close(self) -> None:
         """End the child if it still runs (an error or an interrupt in the checks)."""
         child, self._child = self._child, None
         if child is not None:
             child.close()
+
+
+def _checked(cid: str, fn: Callable[[], CheckResult | tuple[CheckResult, list]]
+             ) -> tuple[CheckResult, list]:
+    """``(result, trajectory)`` of one check, timed; a check that raises is a failed check (a
+    broken export), not a crash."""
+    t = time.perf_counter()
+    try:
+        out = fn()
+    except Exception as exc:
+        log.exception("battery check %s crashed", cid)
+        out = CheckResult(cid, cid, False, message=f"{type(exc).__name__}: {exc}")
+    res, traj = (out if isinstance(out, tuple) else (out, []))
+    res.seconds = time.perf_counter() - t
+    return res, traj
 
 
 def _cores() -> int:
@@ -97,11 +123,12 @@ def _cores() -> int:
 
 
 def _load(source: CompiledModel | str | Path, out_dir: Path | None, exported: bool = False,
-          art: Articulation | None = None, overlap: bool = False
+          art: Articulation | None = None, overlap: bool = False, b3: bool = False
           ) -> tuple[CompiledModel, Path, bool, Articulation | None, _Export | None]:
     """``(model, bundle root, whether the root is a temp dir this call created, the
     articulation, the export still being written or None)``. With ``overlap`` (and a second
-    core), a bundle that must be written is written by a forked child (:class:`_Export`)."""
+    core), a bundle that must be written is written by a forked child (:class:`_Export`),
+    which with ``b3`` runs B3 after it."""
     if isinstance(source, CompiledModel):
         from ..export.bundle import write_bundle
         temp = out_dir is None
@@ -112,7 +139,7 @@ def _load(source: CompiledModel | str | Path, out_dir: Path | None, exported: bo
         try:
             if missing and overlap and _cores() > 1:
                 art = art or articulate(source)  # meshes the parts once, before the fork
-                pending = _Export(source, root, missing, art)
+                pending = _Export(source, root, missing, art, b3=b3)
             elif missing:
                 write_bundle(source, root, formats=missing, art=art)
         except BaseException:
@@ -124,7 +151,7 @@ def _load(source: CompiledModel | str | Path, out_dir: Path | None, exported: bo
     if path.is_file():  # a program file: compile, export next to out_dir
         from ..program import compile_source
         model = compile_source(path.read_text(), name=program_name(path))
-        return _load(model, out_dir, art=art, overlap=overlap)
+        return _load(model, out_dir, art=art, overlap=overlap, b3=b3)
     program = path / "program.py"
     if not program.exists():
         raise FileNotFoundError(f"{path} has no program.py; pass a bundle directory written by "
@@ -308,7 +335,8 @@ def run_battery(source: CompiledModel | str | Path, *, out_dir: str | Path | Non
     """
     wanted = tuple(c for c in ALL_CHECKS if checks is None or c in set(checks))
     model, root, temp, art, pending = _load(source, Path(out_dir) if out_dir else None, exported,
-                                            art, overlap=bool(set(wanted) & set(FILELESS)))
+                                            art, overlap=bool(set(wanted) & set(FILELESS)),
+                                            b3="B3" in wanted)
     try:
         return _run(model, root, wanted, frames and not temp, temp, art, pending)
     finally:
@@ -362,17 +390,11 @@ def _run(model: CompiledModel, root: Path, wanted: tuple[str, ...], frames: bool
         report.notes.append("no out_dir: the bundle went to a temporary directory (removed), "
                             "so no failure frames were saved; pass out_dir to keep them")
 
-    def run(cid: str, fn: Callable[[], CheckResult | tuple[CheckResult, list]], mj=None) -> None:
+    def run(cid: str, fn: Callable[[], CheckResult | tuple[CheckResult, list]], mj=None,
+            done: CheckResult | None = None) -> None:
         if cid not in wanted:
             return
-        t = time.perf_counter()
-        try:
-            out = fn()
-        except Exception as exc:  # a broken export is a failed check, not a crash
-            log.exception("battery check %s crashed", cid)
-            out = CheckResult(cid, cid, False, message=f"{type(exc).__name__}: {exc}")
-        res, traj = (out if isinstance(out, tuple) else (out, []))
-        res.seconds = time.perf_counter() - t
+        res, traj = (done, []) if done is not None else _checked(cid, fn)
         if not res.passed and frames and traj and mj is not None:
             res.frames = render_frames(mj, traj, root, f"{cid}")
             if not res.frames:
@@ -380,17 +402,20 @@ def _run(model: CompiledModel, root: Path, wanted: tuple[str, ...], frames: bool
         report.checks.append(res)
         report.timings[cid] = res.seconds
 
-    def fileless() -> None:
+    def fileless(b3: bool = True) -> None:
         welded = None
         if "B2" in wanted:
             welded = build_mjcf(model, art=art.welded(), masses=masses).spec.compile()
         run("B2", lambda: check_b2(model, art, welded), welded)
-        run("B3", lambda: check_b3(model, art))
+        if b3:
+            run("B3", lambda: check_b3(model, art))
 
     if pending is not None:
-        fileless()
-        pending.wait()
-        report.timings["export_wait"] = pending.wait_s  # the export outlasting B2 and B3
+        fileless(b3=not pending.b3)
+        done = pending.wait()
+        report.timings["export_wait"] = pending.wait_s  # the export (and B3) outlasting B2
+        if pending.b3:  # B3 ran in the export's child, or runs here if that child failed
+            run("B3", lambda: check_b3(model, art), done=done)
     m_file = mujoco.MjModel.from_xml_path(str(root / "model.xml"))
     run("B0", lambda: check_b0(art, m_file))
     run("B1", lambda: check_b1(m_file, art), m_file)
