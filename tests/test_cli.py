@@ -413,3 +413,13 @@ def test_verbose_after_the_subcommand_is_the_tool_s_own_detail():
                           "'no_such_program.py', '-v']; from procedura_brep.cli import main; main()"],
                          capture_output=True, text=True)
     assert run.returncode == 2 and "does not exist" in run.stderr and "No such option" not in run.stderr
+
+
+def test_the_module_entry_points_know_every_command():
+    """Issue 25.1: `python -m procedura_brep.cli bench` said "No such command 'bench'" (main()
+    ran before bench was defined), and layers.toml named a `__main__` that did not exist."""
+    import subprocess
+    import sys
+    for cmd in (["-m", "procedura_brep.cli", "bench", "--help"], ["-m", "procedura_brep", "serve", "--help"]):
+        run = subprocess.run([sys.executable, *cmd], capture_output=True, text=True)
+        assert run.returncode == 0 and "Usage:" in run.stdout, (cmd, run.stderr[-300:])

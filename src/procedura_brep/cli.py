@@ -696,9 +696,6 @@ def _leave(code: object) -> None:
     os._exit(status)
 
 
-if __name__ == "__main__":
-    main()
-
 
 def _pairs(values: list[str] | None) -> tuple[tuple[str, str], ...] | None:
     """``--pair full,one-shot`` (repeatable) -> pairs; one-line error otherwise."""
@@ -792,3 +789,7 @@ def bench(
     if res.judge_errors:
         _err(f"{res.judge_errors} judge call(s) gave no usable score (see {res.out}/judge/scores.json)")
     raise typer.Exit(EXIT_FAIL if res.judge_errors or res.run_errors else EXIT_OK)
+
+
+if __name__ == "__main__":  # last: every command above is registered by now
+    main()
