@@ -126,3 +126,99 @@ def test_importing_program_modules_by_name_loads_no_build123d():
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('build123d', 'sklearn')))\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]", out.stdout
+
+
+def _module_imports(path: Path, package: list[str], root: Path) -> set[str]:
+    """The ``procedura_brep`` modules ``path`` imports (lazy ones included), each resolved to a
+    module file: ``from . import compose`` names the submodule ``compose``, not the package."""
+    out: set[str] = set()
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    typing_only = {id(n) for block in ast.walk(tree) if isinstance(block, ast.If)
+                   and getattr(block.test, "id", getattr(block.test, "attr", "")) == "TYPE_CHECKING"
+                   for stmt in block.body for n in ast.walk(stmt)}  # annotations only: no cycle
+    for node in ast.walk(tree):
+        if id(node) in typing_only:
+            continue
+        if isinstance(node, ast.ImportFrom):
+            base = (package[:len(package) - node.level + 1] if node.level else [])
+            mod = ".".join(base + ([node.module] if node.module else []))
+            if not mod.startswith("procedura_brep"):
+                continue
+            for a in node.names:
+                sub = f"{mod}.{a.name}"
+                out.add(sub if _module_file(sub, root) else mod)
+        elif isinstance(node, ast.Import):
+            out |= {a.name for a in node.names if a.name.startswith("procedura_brep")}
+    return {m for m in (_owner(t, root) for t in out) if m}
+
+
+def _module_file(dotted: str, root: Path) -> Path | None:
+    if dotted == "procedura_brep":
+        return root / "__init__.py"
+    rel = Path(*dotted.split(".")[1:])
+    for p in (root / rel.with_suffix(".py"), root / rel / "__init__.py"):
+        if p.exists():
+            return p
+    return None
+
+
+def _owner(dotted: str, root: Path) -> str | None:
+    """The module that defines ``dotted`` (itself, or the nearest module above a name in it)."""
+    while dotted and _module_file(dotted, root) is None:
+        dotted = dotted.rpartition(".")[0]
+    return dotted or None
+
+
+def import_cycles(root: Path = ROOT) -> list[list[str]]:
+    """The import cycles between the modules of the package (strongly connected groups of two or
+    more), lazy imports included."""
+    graph: dict[str, set[str]] = {}
+    for path in root.rglob("*.py"):
+        rel = path.relative_to(root.parent).with_suffix("")
+        name = ".".join(rel.parts[:-1] if path.name == "__init__.py" else rel.parts)
+        package = list(rel.parts[:-1])  # the package a relative import starts from
+        graph[name] = _module_imports(path, package, root) - {name}
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    out: list[list[str]] = []
+
+    def visit(v: str) -> None:  # Tarjan's strongly connected components
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in graph.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            group = []
+            while True:
+                w = stack.pop()
+                group.append(w)
+                if w == v:
+                    break
+            if len(group) > 1:
+                out.append(sorted(group))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def test_no_import_cycles():
+    """Issue 25.3: no two modules import each other, directly or round a loop, lazily or not
+    (a module both sides need, or ``TYPE_CHECKING`` for annotations, unties one)."""
+    assert import_cycles() == []
+
+
+def test_the_cycle_check_sees_a_lazy_cycle(tmp_path):
+    pkg = tmp_path / "procedura_brep" / "mates"
+    pkg.mkdir(parents=True)
+    (tmp_path / "procedura_brep" / "__init__.py").write_text("")
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("from .b import x\n")
+    (pkg / "b.py").write_text("def x():\n    from . import a\n")
+    assert import_cycles(tmp_path / "procedura_brep") == [["procedura_brep.mates.a", "procedura_brep.mates.b"]]

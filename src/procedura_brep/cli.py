@@ -620,12 +620,13 @@ def serve(
     to it and skips starting its own worker; with no server, or one started from other code,
     they start their own as always. PROCEDURA_BREP_SERVER=off keeps a command off it."""
     from .errors import CompileError
+    from .program.sandbox import Worker
     from .program.server import serve as run
 
     def ready(path: Path) -> None:
         typer.echo(f"warm worker listening on {path} (pid {os.getpid()}); Ctrl-C stops it", err=True)
     try:
-        run(socket_path, ready=ready)
+        run(Worker(), socket_path, ready=ready)
     except (OSError, CompileError) as exc:
         _err(f"cannot serve: {exc}")
         raise typer.Exit(EXIT_FAIL) from None

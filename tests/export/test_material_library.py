@@ -53,7 +53,8 @@ def test_the_compiled_model_carries_the_declared_library(lamp):
 
 
 def test_the_library_survives_the_sandbox_json_boundary(lamp):
-    from procedura_brep.program.model import from_json, to_json
+    from procedura_brep.program.model import to_json
+    from procedura_brep.program.trust import model_from_json as from_json
     back = from_json(json.loads(json.dumps(to_json(lamp))))
     assert back.materials == lamp.materials
 
@@ -132,7 +133,8 @@ def test_paint_keeps_every_part_cached(worker, tmp_path):
 def test_the_parent_checks_the_library_the_child_returns(lamp):
     """The sandbox child is untrusted: a declared entry out of range, or one that redefines a
     built-in, or a part naming a material outside the library, is a ResultError."""
-    from procedura_brep.program.model import from_json, to_json
+    from procedura_brep.program.model import to_json
+    from procedura_brep.program.trust import model_from_json as from_json
     from procedura_brep.program.trust import ResultError
     good = json.loads(json.dumps(to_json(lamp)))
     for mutate, message in (

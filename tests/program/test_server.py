@@ -14,7 +14,7 @@ import pytest
 from procedura_brep.config import SandboxLimits
 from procedura_brep.errors import CompileError
 from procedura_brep.program import server
-from procedura_brep.program.sandbox import CompileOptions, RemoteWorker
+from procedura_brep.program.sandbox import CompileOptions, RemoteWorker, connect_server
 
 LAMP = (Path(__file__).parent / "lamp.py").read_text()
 FAST = SandboxLimits(cpu_s=3, wall_s=8.0, address_space_bytes=3 * 1024**3, recursion=500)
@@ -37,7 +37,7 @@ def served(tmp_path_factory):
 
 def _remote(path, monkeypatch):
     monkeypatch.delenv("PROCEDURA_BREP_SERVER", raising=False)
-    w = server.connect(path)
+    w = connect_server(path)
     assert isinstance(w, RemoteWorker)
     return w
 
@@ -72,18 +72,18 @@ def test_a_server_of_other_code_is_ignored(served, monkeypatch):
     path, _ = served
     monkeypatch.delenv("PROCEDURA_BREP_SERVER", raising=False)
     monkeypatch.setattr(server, "code_digest", lambda: "an edited install")
-    assert server.connect(path) is None
+    assert connect_server(path) is None
 
 
 def test_no_server_or_switched_off_means_a_local_worker(tmp_path, served, monkeypatch):
     path, _ = served
     monkeypatch.delenv("PROCEDURA_BREP_SERVER", raising=False)
-    assert server.connect(tmp_path / "nobody.sock") is None
+    assert connect_server(tmp_path / "nobody.sock") is None
     dead = tmp_path / "dead.sock"
     import socket
     s = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     s.bind(str(dead))
     s.close()  # a socket file nobody listens on (a killed server)
-    assert server.connect(dead) is None
+    assert connect_server(dead) is None
     monkeypatch.setenv("PROCEDURA_BREP_SERVER", "off")
-    assert server.connect(path) is None
+    assert connect_server(path) is None

@@ -34,8 +34,18 @@ CACHE_SIZE: int = 4096
 Box = tuple[np.ndarray, np.ndarray]
 
 
+#: Every gate cache made (:class:`LRU` registers itself): what :func:`clear_caches` forgets.
+_CACHES: list[LRU] = []
+
+
 class LRU(OrderedDict):
-    """A tiny bounded mapping: the oldest entry goes when ``CACHE_SIZE`` is exceeded."""
+    """A tiny bounded mapping: the oldest entry goes when ``CACHE_SIZE`` is exceeded. Each one
+    registers itself with :func:`clear_caches` (so this module imports none of the gates whose
+    caches it clears)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        _CACHES.append(self)
 
     def put(self, key: Any, value: Any) -> Any:
         self[key] = value
@@ -112,13 +122,8 @@ def clear_caches() -> None:
     commons, piece groupings and mate measures. The part meshes themselves are the model's,
     shared with exports and renders, and stay: :func:`procedura_brep.program.model.clear_mesh_cache`
     forgets them (a cold measurement needs both)."""
-    from . import common, mate_gate, pieces
-
-    _PARTS.clear()
-    _DIST.clear()
-    common.clear()
-    pieces.clear()
-    mate_gate._MEASURED.clear()
+    for cache in _CACHES:
+        cache.clear()
 
 
 def face_components(n_vertices: int, faces: np.ndarray) -> tuple[int, np.ndarray]:

@@ -10,43 +10,17 @@ chosen by the type's :class:`.kinds.Motion`: identity for static mates, a rotati
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
-from ..errors import RangeError
-from .kinds import Motion
+from .motion import (check_linear, check_tilt, motion_delta, rigid_inverse, rot_x, rot_y, rot_z,
+                     spherical_delta, spherical_tilt_deg, trans)
 from .vocabulary import TYPES
 
-
-def rot_x(deg: float) -> np.ndarray:
-    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
-    return np.array([[1, 0, 0, 0], [0, c, -s, 0], [0, s, c, 0], [0, 0, 0, 1]], dtype=float)
-
-
-def rot_y(deg: float) -> np.ndarray:
-    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
-    return np.array([[c, 0, s, 0], [0, 1, 0, 0], [-s, 0, c, 0], [0, 0, 0, 1]], dtype=float)
-
-
-def rot_z(deg: float) -> np.ndarray:
-    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
-    return np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]], dtype=float)
-
-
-def trans(x: float = 0.0, y: float = 0.0, z: float = 0.0) -> np.ndarray:
-    m = np.eye(4)
-    m[:3, 3] = (x, y, z)
-    return m
-
-
-def rigid_inverse(m: np.ndarray) -> np.ndarray:
-    """Inverse of a rigid transform (exact transpose of the rotation)."""
-    out = np.eye(4)
-    r = m[:3, :3]
-    out[:3, :3] = r.T
-    out[:3, 3] = -r.T @ m[:3, 3]
-    return out
+__all__ = ["check_linear", "check_tilt", "check_value", "delta", "home_value", "motion_delta",
+           "rigid_inverse", "rot_x", "rot_y", "rot_z", "spherical_delta", "spherical_tilt_deg",
+           "trans"]
 
 
 def check_value(mate: str, mtype: str, value: float | Sequence[float],
@@ -61,51 +35,6 @@ def check_value(mate: str, mtype: str, value: float | Sequence[float],
             ``limits`` / ``angle_limits``.
     """
     TYPES[mtype].check_value(mate, value, limits=limits, cone=cone, angle_limits=angle_limits)
-
-
-def check_linear(what: str, value: float, limits: tuple[float, float] | None, unit: str) -> None:
-    """Refuse a 1-D joint value (deg or mm) outside ``limits`` (None: unbounded)."""
-    if limits is not None and not (limits[0] <= value <= limits[1]):
-        raise RangeError(what, value, limits[0], limits[1], unit=unit)
-
-
-def check_tilt(what: str, value: Sequence[float], cone: float) -> None:
-    """Refuse a spherical value (rx, ry, rz deg) whose tilt exceeds ``cone`` (deg)."""
-    tilt = spherical_tilt_deg(spherical_delta(value))
-    if tilt > cone + 1e-9:
-        raise RangeError(what, tilt, 0.0, cone, unit="deg")
-
-
-def spherical_delta(value: Sequence[float]) -> np.ndarray:
-    """Rotation for a spherical joint value (rx, ry, rz) in degrees: intrinsic X, then Y, then Z
-    (``Rx @ Ry @ Rz``, build123d's ``Intrinsic.XYZ``, as its ``BallJoint`` uses)."""
-    rx, ry, rz = (float(v) for v in value)
-    return rot_x(rx) @ rot_y(ry) @ rot_z(rz)
-
-
-def spherical_tilt_deg(m: np.ndarray) -> float:
-    """Angle between the rotated Z axis and the original Z axis, degrees (the cone measure)."""
-    return math.degrees(math.acos(max(-1.0, min(1.0, float(m[2, 2])))))
-
-
-def _slide_turn(value: Sequence[float]) -> np.ndarray:
-    z, ang = (float(v) for v in value)
-    return trans(z=z) @ rot_z(ang)
-
-
-#: ``Delta`` of each motion at a joint value (deg, mm, (rx, ry, rz) deg, or (z mm, angle deg)).
-_DELTAS: dict[Motion, Callable[..., np.ndarray]] = {
-    Motion.NONE: lambda value: np.eye(4),
-    Motion.TURN: lambda value: rot_z(float(value)),
-    Motion.SLIDE: lambda value: trans(z=float(value)),
-    Motion.BALL: spherical_delta,
-    Motion.SLIDE_TURN: _slide_turn,
-}
-
-
-def motion_delta(motion: Motion, value: float | Sequence[float] | None = None) -> np.ndarray:
-    """``Delta`` for ``motion`` at joint value ``value`` (None = home/identity)."""
-    return np.eye(4) if value is None else _DELTAS[motion](value)
 
 
 def delta(mtype: str, value: float | Sequence[float] | None = None) -> np.ndarray:

@@ -126,7 +126,7 @@ class MateType:
 
     def delta(self, value: float | Sequence[float] | None = None) -> np.ndarray:
         """``Delta`` (4x4, mm) at joint value ``value`` (None: home/identity)."""
-        from .placement import motion_delta
+        from .motion import motion_delta
         return motion_delta(self.motion, value)
 
     def check_value(self, mate: str, value: float | Sequence[float], *,
@@ -151,7 +151,7 @@ class _AxialType(MateType):
     def check_value(self, mate: str, value: float | Sequence[float], *,
                     limits: tuple[float, float] | None = None, cone: float | None = None,
                     angle_limits: tuple[float, float] | None = None) -> None:
-        from .placement import check_linear
+        from .motion import check_linear
         check_linear(f"{mate} ({self.name}) position", float(value), limits,  # type: ignore[arg-type]
                      self.axial_kind.mate_unit)
 
@@ -196,7 +196,7 @@ class SphericalType(MateType):
                     angle_limits: tuple[float, float] | None = None) -> None:
         if cone is None:
             return
-        from .placement import check_tilt
+        from .motion import check_tilt
         check_tilt(f"{mate} ({self.name}) tilt", value, cone)  # type: ignore[arg-type]
 
 
@@ -216,7 +216,7 @@ class CylindricalType(MateType):
     def check_value(self, mate: str, value: float | Sequence[float], *,
                     limits: tuple[float, float] | None = None, cone: float | None = None,
                     angle_limits: tuple[float, float] | None = None) -> None:
-        from .placement import check_linear
+        from .motion import check_linear
         z, ang = (float(v) for v in value)  # type: ignore[union-attr]
         check_linear(f"{mate} ({self.name}) position", z, limits, PRISMATIC.mate_unit)
         check_linear(f"{mate} ({self.name}) angle", ang, angle_limits, REVOLUTE.mate_unit)

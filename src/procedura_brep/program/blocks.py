@@ -91,7 +91,7 @@ def _canonical(shape: Any) -> Any:
 def _region(b: _Build, decl: PaintDecl) -> Any:
     """The region the paint function returns, as a solid (raises on anything else)."""
     from . import guards
-    from .runtime import _as_solid
+    from .values import as_solid as _as_solid
     region = _as_solid(decl.fn())
     if guards.builder_open():
         raise ValueError("the region function left a builder context open")
@@ -123,7 +123,7 @@ def _feature_tools(b: _Build, reg: Registry, mates: list[dict[str, Any]], part: 
 def _paint_one(b: _Build, reg: Registry, mates: list[dict[str, Any]], decl: PaintDecl,
                painted: dict[str, Painted]) -> None:
     from .. import kernel
-    from .runtime import _exc_text
+    from .values import exc_text as _exc_text
     where = f"block {decl.name} (painted on {decl.part})"
 
     def fail(message: str, code: str = "paint") -> None:

@@ -1,7 +1,8 @@
 """The compiled assembly as plain data: what the sandbox returns and every later layer reads.
 
 No kernel objects live here, only BRep bytes and 4x4 matrices (mm), so a model is JSON-safe
-(see :func:`to_json` / :func:`from_json`) and independent of the process that compiled it.
+(see :func:`to_json`, and :func:`procedura_brep.program.trust.model_from_json`, which
+validates it back) and independent of the process that compiled it.
 Shapes are materialised lazily through :mod:`procedura_brep.kernel`. :class:`Finding` lives in
 :mod:`procedura_brep.findings` (base layer) and is re-exported here.
 """
@@ -202,7 +203,7 @@ def _m(a: np.ndarray) -> list[list[float]]:
 
 
 def to_json(model: CompiledModel, *, by_key: bool = False) -> dict[str, Any]:
-    """A JSON-safe dict (BRep as base64) that :func:`from_json` reads back exactly.
+    """A JSON-safe dict (BRep as base64) that :func:`.trust.model_from_json` reads back exactly.
 
     With ``by_key``, a part loaded from the part cache (``from_cache``, not painted) carries
     ``"cached": true`` and no BRep: the reader takes the solid from the cache it shares with
@@ -230,10 +231,3 @@ def to_json(model: CompiledModel, *, by_key: bool = False) -> dict[str, Any]:
         "materials": library_to_json(model.declared_materials),
     }
 
-
-def from_json(d: dict[str, Any]) -> CompiledModel:
-    """Read :func:`to_json`'s output back. The input comes from the sandbox child and is
-    untrusted: every field is validated (:mod:`procedura_brep.program.trust`) and a bad one
-    raises :class:`~procedura_brep.program.trust.ResultError` naming the field."""
-    from . import trust
-    return trust.model_from_json(d)

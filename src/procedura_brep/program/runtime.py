@@ -30,6 +30,8 @@ from ..mates import check_options, get_type
 from ..mates import placement as pl
 from ..mates.kinds import Motion
 from . import blocks, cache, caps, guards, keys, policy, registry
+from .values import as_solid as _as_solid
+from .values import exc_text as _exc_text
 from .model import CompiledMate, CompiledModel, CompiledPart, Finding, cap_text
 from .sections import parse_sections
 
@@ -71,16 +73,6 @@ def _program_line(tb: Any) -> int | None:
     return line
 
 
-def _exc_text(exc: BaseException) -> str:
-    try:
-        raw = str(exc)
-    except Exception:  # noqa: BLE001 - a hostile __str__
-        raw = ""
-    raw = raw[:SANDBOX.message_chars * 2].strip()
-    first = raw.splitlines()[0] if raw else ""
-    return cap_text(f"{type(exc).__name__}: {first}".rstrip(": "))
-
-
 #: OCCT exception types that, in a primitive, mean a size was zero or negative.
 _OCCT_SIZE_ERRORS = ("Standard_DomainError", "Standard_ConstructionError", "Standard_OutOfRange",
                      "gp_VectorWithNullMagnitude", "StdFail_NotDone")
@@ -113,18 +105,6 @@ def loc_matrix(loc: Any) -> np.ndarray:
         for c in range(4):
             m[r, c] = t.Value(r + 1, c + 1)
     return m
-
-
-def _as_solid(value: Any) -> Any:
-    from build123d import BuildPart, Compound, Part, Solid
-    if isinstance(value, BuildPart):
-        value = value.part
-    if isinstance(value, (list, tuple)) and value:
-        value = Compound(children=list(value)) if len(value) > 1 else value[0]
-    if not isinstance(value, (Part, Solid, Compound)):
-        raise ProgramFormatError(f"a part must return a build123d solid (Part, Solid or Compound), "
-                                 f"got {type(value).__name__}")
-    return value
 
 
 class _Build:

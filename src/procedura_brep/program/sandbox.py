@@ -366,16 +366,46 @@ class RemoteWorker(Worker):
         self._conn = None
 
 
+def connect_server(path: Any = None) -> "RemoteWorker | None":
+    """A :class:`RemoteWorker` on the server at ``path`` when one answers the handshake with
+    this code's digest; None otherwise (no server, another version, switched off)."""
+    import socket
+    from pathlib import Path
+
+    from .server import CONNECT_TIMEOUT_S, ENV_SWITCH, _Lines, _send, code_digest, socket_path
+    if os.environ.get(ENV_SWITCH, "").lower() in ("off", "0", "no", "false"):
+        return None
+    path = Path(path or socket_path())
+    if not path.exists():
+        return None
+    try:
+        conn = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        conn.settimeout(CONNECT_TIMEOUT_S)
+        conn.connect(str(path))
+        _send(conn, {"op": "hello"})
+        hello = _Lines(conn).read() or {}
+    except OSError as exc:
+        log.debug("no warm worker at %s (%s)", path, exc)
+        return None
+    if hello.get("digest") != code_digest() or not isinstance(hello.get("cache_dir"), str):
+        conn.close()
+        log.info("ignoring the warm worker at %s: it runs other code (restart `procedura-brep "
+                 "serve`)", path)
+        return None
+    conn.settimeout(None)
+    log.info("using the warm worker at %s (pid %s)", path, hello.get("pid"))
+    return RemoteWorker(conn, hello["cache_dir"], path)
+
+
 _DEFAULT: Worker | None = None
 
 
 def default_worker() -> Worker:
     """The process-wide worker: a running warm server's when one answers with this code
-    (:func:`.server.connect`), else a local one started on first use; stopped at exit."""
+    (:func:`connect_server`), else a local one started on first use; stopped at exit."""
     global _DEFAULT
     if _DEFAULT is None:
-        from .server import connect
-        _DEFAULT = connect() or Worker()
+        _DEFAULT = connect_server() or Worker()
         atexit.register(_DEFAULT.close)
     return _DEFAULT.start()
 
@@ -393,7 +423,7 @@ def compile_source(source: str, *, name: str = "model", limits: SandboxLimits | 
     return (worker or default_worker()).compile(source, opts)
 
 
-__all__ = ["CompileOptions", "RemoteWorker", "Worker", "compile_source", "default_worker", "clean_env",
+__all__ = ["CompileOptions", "RemoteWorker", "Worker", "compile_source", "connect_server", "default_worker", "clean_env",
            "clean_stale_temp", "kill_default_worker", "refuse_oversized", "replace"]
 
 

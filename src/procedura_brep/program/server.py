@@ -3,8 +3,10 @@
 A cold command pays for starting the compile worker (a Python process importing build123d, 2-3
 s here) before its first compile. ``serve`` keeps one :class:`~.sandbox.Worker` warm behind a
 Unix socket; :func:`~.sandbox.default_worker` of any later process connects to it when it is
-running and answers the handshake, and starts its own worker otherwise. The server is never
-required and never stale:
+running and answers the handshake (:func:`~.sandbox.connect_server`, the client side), and
+starts its own worker otherwise. This module is the server side and the wire; it knows no
+worker class (the caller hands :func:`serve` its worker). The server is never required and
+never stale:
 
 - the handshake compares :func:`code_digest` (this package's source files, the Python
   executable and version, build123d's version): a server started from other code, or before an
@@ -100,10 +102,12 @@ class _Lines:
         return obj if isinstance(obj, dict) else {}
 
 
-def serve(path: Path | None = None, *, ready: Any = None) -> None:
-    """Serve a warm worker on the Unix socket ``path`` until interrupted (Ctrl-C, SIGTERM).
+def serve(worker: Any, path: Path | None = None, *, ready: Any = None) -> None:
+    """Serve ``worker`` (a :class:`~.sandbox.Worker`, closed at the end) warm on the Unix socket
+    ``path`` until interrupted (Ctrl-C, SIGTERM).
 
     Args:
+        worker: the worker whose zygote answers the clients.
         path: the socket (default :func:`socket_path`); its folder is made mode 0700.
         ready: called with the path once the worker is warm and the socket listens.
 
@@ -111,7 +115,6 @@ def serve(path: Path | None = None, *, ready: Any = None) -> None:
         CompileError: the worker does not start (build123d missing).
         OSError: another server answers at ``path`` already, or the socket cannot be made.
     """
-    from .sandbox import Worker
     path = Path(path or socket_path())
     path.parent.mkdir(parents=True, exist_ok=True)
     os.chmod(path.parent, 0o700)
@@ -119,7 +122,6 @@ def serve(path: Path | None = None, *, ready: Any = None) -> None:
         if _alive(path):
             raise OSError(f"a server already answers at {path}")
         path.unlink()
-    worker = Worker(cache_dir=None)
     worker._ensure_ready()  # warm before the first client: that is the point
     srv = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     try:
@@ -175,31 +177,3 @@ def _client(conn: socket.socket, worker: Any) -> None:
         return
     finally:
         conn.close()
-
-
-def connect(path: Path | None = None) -> Any | None:
-    """A :class:`RemoteWorker` on the server at ``path`` when one answers the handshake with
-    this code's digest; None otherwise (no server, another version, switched off)."""
-    if os.environ.get(ENV_SWITCH, "").lower() in ("off", "0", "no", "false"):
-        return None
-    path = Path(path or socket_path())
-    if not path.exists():
-        return None
-    try:
-        conn = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-        conn.settimeout(CONNECT_TIMEOUT_S)
-        conn.connect(str(path))
-        _send(conn, {"op": "hello"})
-        hello = _Lines(conn).read() or {}
-    except OSError as exc:
-        log.debug("no warm worker at %s (%s)", path, exc)
-        return None
-    if hello.get("digest") != code_digest() or not isinstance(hello.get("cache_dir"), str):
-        conn.close()
-        log.info("ignoring the warm worker at %s: it runs other code (restart `procedura-brep "
-                 "serve`)", path)
-        return None
-    conn.settimeout(None)
-    log.info("using the warm worker at %s (pid %s)", path, hello.get("pid"))
-    from .sandbox import RemoteWorker
-    return RemoteWorker(conn, hello["cache_dir"], path)
