@@ -423,3 +423,20 @@ def test_the_module_entry_points_know_every_command():
     for cmd in (["-m", "procedura_brep.cli", "bench", "--help"], ["-m", "procedura_brep", "serve", "--help"]):
         run = subprocess.run([sys.executable, *cmd], capture_output=True, text=True)
         assert run.returncode == 0 and "Usage:" in run.stdout, (cmd, run.stderr[-300:])
+
+
+def test_provider_errors_are_the_package_s_errors_and_config_mistakes_are_usage():
+    """Issue 25.5: LLMError under the root error, so the CLI catches one type; a configuration
+    mistake reaching the guard is the user's (exit 2), a provider failure a failure (exit 1)."""
+    import typer
+
+    from procedura_brep.cli import guarded
+    from procedura_brep.errors import ProceduraError
+    from procedura_brep.llm.errors import ConfigError, LLMError, ProviderError
+    assert issubclass(LLMError, ProceduraError)
+    for exc, code in ((ConfigError("no such provider 'nope'"), 2), (ProviderError("the server said 500"), 1)):
+        def fail(exc=exc):
+            raise exc
+        with pytest.raises(typer.Exit) as got:
+            guarded(fail)()
+        assert got.value.exit_code == code

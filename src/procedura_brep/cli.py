@@ -81,8 +81,9 @@ def guarded(fn: Callable[..., Any]) -> Callable[..., Any]:
                 _more([describe(f) for f in errors[1:]])
             raise typer.Exit(EXIT_USAGE) from None
         except ProceduraError as exc:
+            from .llm.errors import ConfigError
             _err(str(exc))
-            raise typer.Exit(EXIT_FAIL) from None
+            raise typer.Exit(EXIT_USAGE if isinstance(exc, ConfigError) else EXIT_FAIL) from None
         except OSError as exc:  # a path we did not check first: name it, do not guess a side
             what = f" {exc.filename}" if exc.filename else ""
             _err(f"cannot access{what}: {(exc.strerror or str(exc)).lower()}")

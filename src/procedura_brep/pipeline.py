@@ -77,10 +77,6 @@ class BuildResult:
         return reason(self.status, self.findings)
 
 
-def compile_file(source: str, name: str) -> CompiledModel:
-    """Deprecated: :func:`procedura_brep.run.compile_model` with ``warm=True``."""
-    return steps.compile_model(source, name=name, warm=True)
-
 
 def build(program: Path, out_dir: Path, *, formats: tuple[str, ...] | None = None,
           name: str | None = None, gates: bool = True, source: str | None = None,
@@ -332,10 +328,5 @@ def verify_and_export(model: CompiledModel, source: str, root: Path, fmts: tuple
             "battery_findings": [f.as_dict() for f in battery]}
 
 
-def run_gates(model: CompiledModel, source: str) -> dict[str, Any]:
-    """Deprecated: ``procedura_brep.run.gate(model, source).report``."""
-    return steps.gate(model, source).report
 
-
-__all__ = ["BuildResult", "Progress", "build", "compile_file", "describe", "dump_json", "mates_json",
-           "part_rows", "run_gates", "verify_and_export"]
+__all__ = ["BuildResult", "Progress", "build", "describe", "dump_json", "verify_and_export"]

@@ -198,7 +198,7 @@ def test_promotions_are_applied_or_refused_by_evidence_and_logged(tmp_path):
                                    '"seat_face", nominal="pin_d", fit="clearance"')
     host = _Host(tmp_path)
     stage = ArticulationStage(host)
-    model = host.tools.compile(src, "lamp")
+    model = host.tools.compile_model(src, "lamp")
     plan = parse_articulation('{"promote": [{"mate": "post_foot", "type": "revolute", "limits": null,'
                               ' "drive": "velocity"}, {"mate": "arm_pivot", "type": "revolute",'
                               ' "limits": [-30, 30]}], "base": "welded"}', model)
@@ -209,7 +209,7 @@ def test_promotions_are_applied_or_refused_by_evidence_and_logged(tmp_path):
     assert "promote arm_pivot to revolute refused" in rows["arm_pivot"]["reason"]
     assert 'mate("post.foot", "base.top", "revolute", nominal="spigot_d", fit="location", limits=None)' in new
     assert '"seat_face", nominal="pin_d"' in new
-    art = articulate(host.tools.compile(new, "lamp"))
+    art = articulate(host.tools.compile_model(new, "lamp"))
     assert [(j.name, j.type, j.drive) for j in art.joints] == [("post_foot", "continuous", "velocity")]
     assert (tmp_path / "history" / "001-articulation-post_foot.py").read_text() == new
 

@@ -32,7 +32,7 @@ def test_a_revise_without_parts_may_edit_both_parts_of_a_pair_issue():
     from procedura_brep.agent.refine import RefineBench
     model = SimpleNamespace(parts=[SimpleNamespace(name=n) for n in sorted(PARTS)])
     host = SimpleNamespace(
-        tools=SimpleNamespace(compile=lambda source, name: model), name="m", prompt="a telescope",
+        tools=SimpleNamespace(compile_model=lambda source, name: model), name="m", prompt="a telescope",
         _refs=lambda: [],
         _call=lambda role, system, msgs, max_tokens=0: "SUMMARY: s\nISSUES:\n- [HIGH] tube+ring: gap")
     bench = RefineBench(host, allowed=set())

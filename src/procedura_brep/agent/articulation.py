@@ -93,7 +93,7 @@ class ArticulationStage:
     # gating ----------------------------------------------------------------------------------
 
     def _compile(self, source: str) -> CompiledModel:
-        return self.host.tools.compile(source, self.host.name)
+        return self.host.tools.compile_model(source, self.host.name)
 
     def gate(self, before: str, after: str) -> tuple[CompiledModel | None, str | None]:
         """(model, None) when ``after`` may replace ``before``; (None, why) when refused."""

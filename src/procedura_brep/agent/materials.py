@@ -118,7 +118,7 @@ class MaterialsBench:
     def __init__(self, host: Host, source: str) -> None:
         self.host = host
         self.source = source
-        self.model = host.tools.compile(source, host.name)
+        self.model = host.tools.compile_model(source, host.name)
         self.entries: tuple[Entry, ...] = declared_entries(source, self.model.materials)
         self.steps: list[dict[str, Any]] = []
 
@@ -146,7 +146,7 @@ class MaterialsBench:
         part keeps its geometry digest, every assigned part carries its material."""
         try:
             new = apply_materials(self.source, entries, assign)
-            model = self.host.tools.compile(new, self.host.name)
+            model = self.host.tools.compile_model(new, self.host.name)
         except (PaintError, ProceduraError) as exc:
             return False, str(exc)
         errors = blocking(model.findings)

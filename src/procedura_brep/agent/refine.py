@@ -171,7 +171,7 @@ class RefineBench:
 
     def _model(self, source: str) -> CompiledModel:
         if source not in self._models:
-            self._models = {source: self.host.tools.compile(source, self.host.name)}
+            self._models = {source: self.host.tools.compile_model(source, self.host.name)}
         return self._models[source]
 
     def render(self, source: str, *, views: list[str] | None, close_up: str | None) -> list[Any]:

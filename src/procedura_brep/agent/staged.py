@@ -28,7 +28,7 @@ from .. import interrupt
 from ..errors import ProceduraError
 from ..findings import blocks
 from ..llm import Client, Image, Message, Request, Settings
-from ..llm.errors import BudgetExceeded
+from ..llm.errors import BudgetExceeded, LLMError
 from ..paths import write_atomic
 from ..program.model import CompiledModel
 from ..program.splice import SpliceError, empty_program, parse_reply, replace_part, splice
@@ -241,7 +241,7 @@ class StagedRun:
     def _current_model(self) -> CompiledModel | None:
         if self._model is None and self.state.source:
             try:
-                self._model = self.tools.compile(self.state.source, self.name)
+                self._model = self.tools.compile_model(self.state.source, self.name)
             except ProceduraError:
                 self._model = None
         return self._model
@@ -466,7 +466,7 @@ class StagedRun:
         views, legend = [], ""
         if self.options.feedback:
             try:
-                model = self.tools.compile(source, self.name)
+                model = self.tools.compile_model(source, self.name)
                 views, legend = self.tools.render(
                     model, list(self.options.views) if self.options.views else None)
             except ProceduraError:
@@ -552,6 +552,8 @@ class StagedRun:
                                       + int(self.refine_report.get("edits", 0)))
             try:
                 source = stage.run(self.state.source)
+            except LLMError:  # the provider failed: the run ends on it, as in every stage
+                raise
             except ProceduraError as exc:  # the program as refined ships; the finish reports it
                 source = self.state.source
                 stage.report["findings"].append(f"the articulation stage stopped: {exc}")

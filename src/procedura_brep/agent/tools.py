@@ -78,8 +78,6 @@ class Tools:
         from ..run import compile_model
         return compile_model(source, name=name)
 
-    compile = compile_model  # deprecated name (agent/staged.py, agent/refine.py call it)
-
     def gate_part(self, source: str, part: str, *, baseline: int, name: str = "model") -> PartVerdict:
         """Compile, then the gates on ``part``: its compile findings, its mates, pair findings
         naming it, its origin, and connectivity relative to the running ``baseline`` N_vis; the

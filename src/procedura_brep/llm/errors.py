@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import re
 
+from ..errors import ProceduraError
+
 __all__ = [
     "BudgetExceeded",
     "ConfigError",
@@ -49,8 +51,10 @@ def one_line(text: str, *, limit: int = 400) -> str:
     return flat if len(flat) <= limit else flat[: limit - 3] + "..."
 
 
-class LLMError(Exception):
-    """Base class of every error raised by ``procedura_brep.llm``; messages are one line."""
+class LLMError(ProceduraError):
+    """Base class of every error raised by ``procedura_brep.llm``; messages are one line. Under
+    the package's root error, so a caller catches one type (a stage that must not swallow a
+    provider's failure re-raises it by name)."""
 
     def __init__(self, message: str) -> None:
         super().__init__(one_line(message))
