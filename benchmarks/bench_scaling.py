@@ -49,7 +49,7 @@ def main() -> None:
     for mode in args.modes.split(","):
         if mode == "ray":
             try:
-                import ray  # noqa: F401
+                import ray  # noqa: F401 - only checks that Ray is installed
             except ImportError:
                 print("ray: not installed (pip install 'procedura-brep[ray]'); skipped")
                 continue

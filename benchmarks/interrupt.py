@@ -16,7 +16,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 
-from test_interrupt import ROVER, interrupt_build  # noqa: E402
+from test_interrupt import ROVER, interrupt_build  # noqa: E402 - after the sys.path line above
 
 POINTS = (("compiling", 0.05, "CLI imports"), ("compiling", 3.0, "worker compile"),
           ("writing", 0.05, "exports"), ("running the gates", 0.05, "gates"))

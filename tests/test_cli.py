@@ -369,9 +369,10 @@ def test_escape_sequences_in_an_exception_are_stripped(tmp_path):
 
 
 def test_check_tables_escape_markup():
-    from procedura_brep.console import print_check
     import contextlib
     import io
+
+    from procedura_brep.console import print_check
     data = {"model": "[red]m", "passed": False, "triangles_per_part": {"[bold]p": 12},
             "findings": [{"part": "[bold]p", "severity": "error", "code": "[blink]c",
                           "message": "[link=https://evil.example]click[/link]\x1b]0;t\x07"}],

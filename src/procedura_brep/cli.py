@@ -12,10 +12,10 @@ Progress goes to stderr too (``-q`` silences it), so stdout stays clean for ``--
 from __future__ import annotations
 
 import functools
-from enum import Enum
 import logging
 import os
 import sys
+from enum import Enum
 from pathlib import Path
 from typing import Annotated, Any, Callable, Optional
 
@@ -66,8 +66,7 @@ def guarded(fn: Callable[..., Any]) -> Callable[..., Any]:
             raise
 
     def mapped(*args: Any, **kwargs: Any) -> Any:
-        from .errors import (CompileError, EditError, InputError, OutputError, ProceduraError,
-                             ProgramFormatError)
+        from .errors import CompileError, EditError, InputError, OutputError, ProceduraError, ProgramFormatError
         try:
             return fn(*args, **kwargs)
         except typer.Exit:
@@ -295,11 +294,11 @@ def edit(
     """
     from .errors import OutputError
     from .findings import blocking
+    from .paths import program_name, write_atomic
     from .pipeline import build as run_build
+    from .program.edit import parse_assignment, set_params
     from .run import compile_model, gate
     from .run.report import describe
-    from .paths import program_name, write_atomic
-    from .program.edit import parse_assignment, set_params
     from .rundir import output_reason
     source = _read(program)
     values = dict(parse_assignment(s) for s in set_)
@@ -475,7 +474,8 @@ def generate(
     no_review: Annotated[bool, typer.Option("--no-review", help="Ablation: no plan review.")] = False,
     no_feedback: Annotated[bool, typer.Option("--no-feedback", help="Ablation: no renders in build calls.")] = False,
     no_refine: Annotated[bool, typer.Option("--no-refine", help="Ablation: ship the draft.")] = False,
-    no_materials: Annotated[bool, typer.Option("--no-materials", help="Skip the materials stage (library, critic, sub-parts).")] = False,
+    no_materials: Annotated[bool, typer.Option("--no-materials", help="Skip the materials stage (library, "
+                                               "critic, sub-parts).")] = False,
     no_simulate: Annotated[bool, typer.Option("--no-simulate", help="Skip the MuJoCo battery.")] = False,
     no_articulation: Annotated[bool, typer.Option("--no-articulation", help="No articulation planning call "
                                                   "and no battery fix (the mates as built).")] = False,
@@ -578,7 +578,9 @@ def revise(
 ) -> None:
     """Apply a person's change request to a run directory through diagnosed, gated edits."""
     import json
-    from .agent.revise import ReviseError, revise as run
+
+    from .agent.revise import ReviseError
+    from .agent.revise import revise as run
     from .llm import ConfigError, LLMError
     from .llm.settings import resolve_model
     setting = resolve_model(model, base_url)

@@ -12,8 +12,8 @@ from typing import Any
 
 import typer
 
-from .text import markup_safe, terminal_safe
 from .findings import blocking, blocks
+from .text import markup_safe, terminal_safe
 
 #: Cells in the tables are cut to this many characters (full values are in the JSON).
 CELL_CHARS = 60

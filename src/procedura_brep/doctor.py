@@ -14,7 +14,7 @@ from .llm import Check, check_provider
 def _module(name: str, label: str, fix: str, *, optional: bool = False, attr: str = "__version__") -> Check:
     try:
         mod = importlib.import_module(name)
-    except Exception as exc:  # noqa: BLE001 - any import failure is a finding
+    except Exception as exc:  # noqa: BLE001 - whatever breaks the import is the report - any import failure is a finding
         return Check(label, False, f"cannot import {name}: {type(exc).__name__}: {exc}", fix, optional)
     return Check(label, True, f"{name} {getattr(mod, attr, '')}".strip())
 
@@ -50,8 +50,8 @@ def _render() -> Check:
 
 def _usd() -> Check:
     try:
-        from pxr import Usd, UsdValidation  # noqa: F401
-    except Exception as exc:  # noqa: BLE001
+        from pxr import Usd, UsdValidation  # noqa: F401 - the check is that they import
+    except Exception as exc:  # noqa: BLE001 - whatever breaks the import is the report
         return Check("OpenUSD", False, f"cannot import pxr.UsdValidation: {exc}", "pip install usd-core")
     return Check("OpenUSD", True, f"usd-core {'.'.join(map(str, Usd.GetVersion()))} with UsdValidation")
 

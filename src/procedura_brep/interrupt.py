@@ -84,12 +84,12 @@ def shutdown(signum: int = signal.SIGINT) -> None:
         for fn in reversed(list(_cleanups)):
             try:
                 fn()
-            except BaseException:  # noqa: BLE001 - a cleanup must not stop the exit
+            except BaseException:  # noqa: BLE001 - a closed or broken stdout must not stop the exit - a cleanup must not stop the exit
                 log.debug("cleanup failed during interrupt", exc_info=True)
         name = "interrupted" if signum == signal.SIGINT else f"terminated ({signal.Signals(signum).name})"
         try:
             sys.stdout.flush()
-        except BaseException:  # noqa: BLE001
+        except BaseException:  # noqa: BLE001 - a closed or broken stdout must not stop the exit
             pass
         os.write(2, f"\nerror: {name}\n".encode())
     finally:

@@ -164,7 +164,7 @@ def _child(fn: Callable[[Send], dict[str, Any]], w: int, r: int, lim: ParentLimi
             os.write(w, b'{"failure": {"kind": "memory", "message": "ran out of memory"}}\n')
         except OSError:
             pass
-    except BaseException:  # noqa: BLE001
+    except BaseException:  # noqa: BLE001 - the forked child reports any failure as exit 3
         code = 3
     finally:
         os._exit(code)

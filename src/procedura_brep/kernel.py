@@ -17,9 +17,26 @@ from .errors import KernelError
 
 
 def _ocp():  # lazy: keeps `procedura-brep --help` instant
-    from OCP import BinTools, BRepBndLib, BRepCheck, BRepGProp, BRepMesh, Bnd, GProp, TopAbs
-    from OCP import TopExp, TopLoc, TopoDS, gp, BRep, BRepAlgoAPI
-    return locals()
+    from OCP import (
+        BinTools,
+        Bnd,
+        BRep,
+        BRepAlgoAPI,
+        BRepBndLib,
+        BRepCheck,
+        BRepGProp,
+        BRepMesh,
+        GProp,
+        TopAbs,
+        TopExp,
+        TopLoc,
+        TopoDS,
+        gp,
+    )
+    return {"BinTools": BinTools, "BRepBndLib": BRepBndLib, "BRepCheck": BRepCheck,
+            "BRepGProp": BRepGProp, "BRepMesh": BRepMesh, "Bnd": Bnd, "GProp": GProp,
+            "TopAbs": TopAbs, "TopExp": TopExp, "TopLoc": TopLoc, "TopoDS": TopoDS, "gp": gp,
+            "BRep": BRep, "BRepAlgoAPI": BRepAlgoAPI}
 
 
 def warm_up() -> None:

@@ -24,7 +24,6 @@ from typing import Any
 
 from . import interrupt
 from .errors import CompileError, OutputError, ProceduraError
-from .export.records import mates_json, part_rows
 from .findings import Finding, blocking, failed
 from .paths import program_name
 from .program.model import CompiledModel

@@ -10,8 +10,7 @@ import numpy as np
 import pytest
 
 from procedura_brep.agent.articulation import FixerError, parse_fixer
-from procedura_brep.agent.articulation_plan import (ArticulationPlanError, parse_articulation,
-                                                    promotion_refusal)
+from procedura_brep.agent.articulation_plan import ArticulationPlanError, parse_articulation, promotion_refusal
 from procedura_brep.agent.staged import generate_staged
 from procedura_brep.program.mate_edit import REMOVE, set_mate
 
@@ -59,6 +58,7 @@ def test_a_promotion_needs_symmetry_evidence():
     """A round peg on its axis may become a revolute; a box on a box may not; a prismatic needs a
     parallel symmetry axis."""
     from build123d import Box, Cylinder
+
     from procedura_brep.articulation.evidence import symmetry_axis
     from procedura_brep.kernel import tessellate
     from tests.articulation.models import mate
@@ -157,6 +157,7 @@ def test_battery_failure_is_fixed_by_one_gated_edit(run):
 
 def test_no_articulation_flag_reaches_the_options(monkeypatch, tmp_path):
     from typer.testing import CliRunner
+
     import procedura_brep.agent.staged as staged
     from procedura_brep.cli import app
     seen = {}

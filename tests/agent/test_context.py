@@ -7,8 +7,7 @@ import json
 
 from PIL import Image as PILImage
 
-from procedura_brep.agent.context import (CommittedPart, build_request, part_slice, prefix_ratio,
-                                          serialise)
+from procedura_brep.agent.context import CommittedPart, build_request, part_slice, prefix_ratio, serialise
 from procedura_brep.agent.plan import parse_plan
 from procedura_brep.llm import Image, Message
 

@@ -11,8 +11,15 @@ from pathlib import Path
 
 import pytest
 
-from procedura_brep.agent.actions import (MAX_REBUILDS, REBUILD_AFTER, Action, ActionError, EditRefused,
-                                          RefineSession, parse_action)
+from procedura_brep.agent.actions import (
+    MAX_REBUILDS,
+    REBUILD_AFTER,
+    Action,
+    ActionError,
+    EditRefused,
+    RefineSession,
+    parse_action,
+)
 from procedura_brep.agent.staged import StagedOptions, generate_staged
 from procedura_brep.testing.tapes import part_replies, plan_from_program, write_tape
 

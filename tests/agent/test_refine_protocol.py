@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from procedura_brep.agent.actions import (Action, ActionError, CompileOutcome, EditRefused, RefineSession,
-                                          parse_action)
+from procedura_brep.agent.actions import Action, ActionError, CompileOutcome, EditRefused, RefineSession, parse_action
 from procedura_brep.agent.critic import CritiqueError, parse_critique
 
 VIEWS = ("iso_ne", "front", "left")

@@ -125,6 +125,7 @@ def test_the_battery_takes_the_articulation_it_is_given(lamp, tmp_path):
     """Handed a lamp articulation with its arm flagged as a wheel on a free base, the battery
     exports that (a free root in model.xml) and drives that wheel in B4 (not skipped)."""
     import mujoco
+
     from procedura_brep.sim import run_battery
     art = dataclasses.replace(articulate(lamp), wheels=[LAMP], base="free")
     report = run_battery(lamp, out_dir=tmp_path, checks=["B4"], frames=False, art=art)

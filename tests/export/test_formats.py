@@ -110,6 +110,7 @@ def test_joints_agree_across_formats(lamp, bundle):
     import mujoco
     import yourdfpy
     from pxr import Usd
+
     from procedura_brep.export.usd import usd_joint_frames
     out, _ = bundle
     art = articulate(lamp)
@@ -173,7 +174,9 @@ def _rot(axis: str, a: float) -> np.ndarray:
 
 def test_rpy_round_trips_random_rotations_without_warnings():
     import warnings
+
     from scipy.spatial.transform import Rotation
+
     from procedura_brep.export.urdf import rpy, rpy_matrix
     with warnings.catch_warnings():
         warnings.simplefilter("error")
@@ -190,6 +193,7 @@ def test_rpy_exact_at_gimbal_lock(pitch, other):
     """The four gimbal cases (pitch +-90 deg, with and without roll/yaw): no warning, yaw = 0 by
     convention, the matrix reconstructed to 1e-12."""
     import warnings
+
     from procedura_brep.export.urdf import rpy, rpy_matrix
     roll0, yaw0 = other
     r = _rot("z", yaw0) @ _rot("y", pitch) @ _rot("x", roll0)
@@ -220,6 +224,7 @@ def test_glb_is_metres_y_up(lamp, bundle):
                                             ("---/program.py", "model")])
 def test_program_name_is_an_identifier(path, name):
     import re
+
     from procedura_brep.paths import program_name
     got = program_name(Path(path))
     assert got == name and re.fullmatch(r"[a-z_][a-z0-9_]*", got)
@@ -228,7 +233,9 @@ def test_program_name_is_an_identifier(path, name):
 def test_usd_root_is_valid_for_any_model_name(lamp):
     """A name that is not a USD identifier (a leading digit, a dash) still exports."""
     import dataclasses
+
     from pxr import Sdf
+
     from procedura_brep.export.usd import usd_stage
     stage = usd_stage(dataclasses.replace(lamp, name="2-lamp"))
     root = stage.GetDefaultPrim()

@@ -134,8 +134,8 @@ def test_the_parent_checks_the_library_the_child_returns(lamp):
     """The sandbox child is untrusted: a declared entry out of range, or one that redefines a
     built-in, or a part naming a material outside the library, is a ResultError."""
     from procedura_brep.program.model import to_json
-    from procedura_brep.program.trust import model_from_json as from_json
     from procedura_brep.program.trust import ResultError
+    from procedura_brep.program.trust import model_from_json as from_json
     good = json.loads(json.dumps(to_json(lamp)))
     for mutate, message in (
             (lambda d: d["materials"][0].update(roughness=7), "roughness = 7 is outside"),

@@ -145,7 +145,7 @@ def test_box_pairs_match_brute_force():
         hi, hi2 = lo + rng.uniform(0, 3, (n, 3)), lo2 + rng.uniform(0, 5, (m, 3))
         g = float(rng.uniform(0, 0.5))
 
-        def near(a, b, c, d):
+        def near(a, b, c, d, g=g):
             return bool(np.all(a - g <= d) and np.all(c - g <= b))
 
         one = {(i, j) for i, j in itertools.combinations(range(n), 2)

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import dataclasses
 
-
 from procedura_brep.gates import check_model
 from procedura_brep.gates.connectivity import analyse
 from procedura_brep.gates.interference import scan

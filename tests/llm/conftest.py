@@ -99,10 +99,10 @@ class FakeServer:
                 except (BrokenPipeError, ConnectionResetError):
                     pass
 
-            def do_GET(self) -> None:  # noqa: N802
+            def do_GET(self) -> None:  # noqa: N802 - http.server's method name
                 self._send(Behaviour(body={"object": "list", "data": []}))
 
-            def do_POST(self) -> None:  # noqa: N802
+            def do_POST(self) -> None:  # noqa: N802 - http.server's method name
                 length = int(self.headers.get("Content-Length") or 0)
                 server.times.append(time.monotonic())
                 server.requests.append(json.loads(self.rfile.read(length) or b"{}"))

@@ -9,8 +9,19 @@ import threading
 
 import pytest
 
-from procedura_brep.llm import (Client, ConfigError, Image, MalformedReplyError, Message, Provider,
-                                Reply, Request, Settings, Transcript, read_tape)
+from procedura_brep.llm import (
+    Client,
+    ConfigError,
+    Image,
+    MalformedReplyError,
+    Message,
+    Provider,
+    Reply,
+    Request,
+    Settings,
+    Transcript,
+    read_tape,
+)
 from procedura_brep.llm.exchange import ExchangeProvider
 from procedura_brep.llm.openai_compat import OpenAIProvider
 from procedura_brep.llm.replay import ReplayProvider

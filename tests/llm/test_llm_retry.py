@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from procedura_brep.llm import ProviderError, ProviderTimeoutError
-from procedura_brep.llm.retry import RetryPolicy, Retryable, call_with_retries, parse_retry_after
+from procedura_brep.llm.retry import Retryable, RetryPolicy, call_with_retries, parse_retry_after
 
 
 class FakeClock:

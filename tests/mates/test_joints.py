@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 
 build123d = pytest.importorskip("build123d")
-from build123d import Box, Location  # noqa: E402
+from build123d import Box, Location  # noqa: E402 - after the importorskip above
 
-from procedura_brep.errors import RangeError  # noqa: E402
-from procedura_brep.mates import placement as pl  # noqa: E402
-from procedura_brep.mates.joints import kinematic, rigid_place  # noqa: E402
-from procedura_brep.program.runtime import loc_matrix  # noqa: E402
+from procedura_brep.errors import RangeError  # noqa: E402 - after the importorskip above
+from procedura_brep.mates import placement as pl  # noqa: E402 - after the importorskip above
+from procedura_brep.mates.joints import kinematic, rigid_place  # noqa: E402 - after the importorskip above
+from procedura_brep.program.runtime import loc_matrix  # noqa: E402 - after the importorskip above
 
 FP = Location((5, 2, 10), (0, 90, 30))   # a tilted parent frame: the axis is not Z
 FC = Location((1, -2, -5), (15, 0, 0))

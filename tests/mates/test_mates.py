@@ -59,7 +59,7 @@ def test_features_change_both_halves(built, mtype):
 
 
 def test_clearance_peg_radial_gap_equals_table(worker):
-    from build123d import Box, Cylinder, Solid, Align
+    from build123d import Align, Box, Cylinder, Solid
     m = _build(worker, program("peg_socket", 10.0, "clearance"))
     mate = m.mates[0]
     inv = pl.rigid_inverse(mate.world_frame)

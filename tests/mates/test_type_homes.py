@@ -134,8 +134,8 @@ def test_every_kinematic_type_refuses_a_value_outside_its_range(name):
 
 @pytest.mark.parametrize("name", list(JOINT_KINDS))
 def test_every_joint_kind_maps_onto_every_format(name):
-    from pxr import UsdPhysics
     import mujoco
+    from pxr import UsdPhysics
     kind = joint_kind(name)
     assert kind.name == name
     assert hasattr(UsdPhysics, kind.usd)

@@ -15,8 +15,8 @@ import pytest
 from procedura_brep import kernel
 from procedura_brep.program import compile_source
 from procedura_brep.program.model import to_json
-from procedura_brep.program.trust import model_from_json as from_json
 from procedura_brep.program.sandbox import Worker
+from procedura_brep.program.trust import model_from_json as from_json
 
 from .painted import ARM_SECTION, LAMP, paint_decl, painted_lamp, tip_region
 

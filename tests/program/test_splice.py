@@ -10,7 +10,6 @@ import pytest
 from procedura_brep import kernel
 from procedura_brep.program.sections import parse_sections
 from procedura_brep.program.splice import SpliceError, empty_program, parse_reply, replace_part, splice
-
 from procedura_brep.testing.tapes import part_replies
 
 ROOT = Path(__file__).parents[2]
@@ -94,7 +93,7 @@ def test_splice_dedupes_params_and_renames_a_colliding_helper():
     tree = ast.parse(two.source)
     fns = {n.name: n for n in tree.body if isinstance(n, ast.FunctionDef)}
     assert set(fns) == {"bottom", "bottom_2", "base", "post"}
-    uses = lambda fn: {c.func.id for c in ast.walk(fns[fn]) if isinstance(c, ast.Call)  # noqa: E731
+    uses = lambda fn: {c.func.id for c in ast.walk(fns[fn]) if isinstance(c, ast.Call)  # noqa: E731 - a one-line probe
                        and isinstance(c.func, ast.Name)}
     assert "bottom_2" in uses("post") and "bottom" in uses("base") and "bottom_2" not in uses("base")
     assert ast.unparse(fns["bottom_2"]).endswith("Align.MAX)")
@@ -191,7 +190,7 @@ def test_replace_part_keeps_its_place_and_the_other_parts_bytes():
     assert "Cylinder(12, post_h" in out.source and "Cylinder(10, post_h" not in out.source.split("def cap")[0]
     assert out.source.count('frames("post"') == 1 and out.source.count('mate("post.foot"') == 1
     for part in ("base", "cap"):  # other parts' text is unchanged
-        seg = lambda src: src.split(f"def {part}():")[1].split("\n\n")[0]  # noqa: E731
+        seg = lambda src, part=part: src.split(f"def {part}():")[1].split("\n\n")[0]  # noqa: E731 - a one-line probe
         assert seg(out.source) == seg(three)
     root = replace_part(three, BASE.replace("Box(120", "Box(130"))
     assert root.source.index("def base()") < root.source.index("def post()")

@@ -11,9 +11,16 @@ from PIL import Image
 from procedura_brep import kernel
 from procedura_brep.errors import RangeError
 from procedura_brep.program.model import CompiledMate, CompiledModel, CompiledPart
-from procedura_brep.render import (VIEWS, fit_camera, parse_views, part_colors, render_images,
-                                   render_to_dir, views_status)
-from procedura_brep.render import scene
+from procedura_brep.render import (
+    VIEWS,
+    fit_camera,
+    parse_views,
+    part_colors,
+    render_images,
+    render_to_dir,
+    scene,
+    views_status,
+)
 from procedura_brep.render.compose import BACKGROUND
 
 # Three 40 mm cubes side by side along X (left_box, mid_box, right_box) on a plate.

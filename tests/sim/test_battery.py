@@ -110,6 +110,7 @@ def test_no_out_dir_leaves_no_temp_dir(lamp):
     """Without out_dir the bundle goes to a temp dir that is removed afterwards (and the report
     says that no frames could be kept)."""
     import tempfile
+
     from procedura_brep.sim.battery import TEMP_PREFIX
     tmp = Path(tempfile.gettempdir())
     before = set(tmp.glob(f"{TEMP_PREFIX}*"))

@@ -89,6 +89,7 @@ def test_mujoco_urdf_keeps_a_limited_ball(bundle):
 
 def test_usd_spherical_joint_with_cone_limits(bundle):
     from pxr import Usd, UsdPhysics
+
     from procedura_brep.export.usd import usd_joint_frames
     stage = Usd.Stage.Open(str(bundle / "model.usda"))
     prim = stage.GetPrimAtPath("/ball/joints/post_ball")

@@ -19,7 +19,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "src"))
 
-from procedura_brep.testing.tapes import staged_tape, write_tape  # noqa: E402
+from procedura_brep.testing.tapes import staged_tape, write_tape  # noqa: E402 - after the sys.path line above
 
 PROMPT = "a desk lamp with a swinging arm"
 LAMP = ROOT / "tests" / "program" / "lamp.py"

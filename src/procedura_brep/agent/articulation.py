@@ -36,8 +36,15 @@ from ..mates import TYPES
 from ..paths import write_atomic
 from ..program.mate_edit import REMOVE, set_mate
 from ..program.model import CompiledModel
-from .articulation_plan import (ArticulationPlan, ArticulationPlanError, JointEdit, _json_object,
-                                evidence_text, parse_articulation, promotion_refusal)
+from .articulation_plan import (
+    ArticulationPlan,
+    ArticulationPlanError,
+    JointEdit,
+    _json_object,
+    evidence_text,
+    parse_articulation,
+    promotion_refusal,
+)
 from .prompts import template
 
 log = logging.getLogger(__name__)

@@ -242,7 +242,8 @@ def evidence_text(model: CompiledModel, evidence: dict[str, Any], art: Articulat
         rows.append(f"- {name}: {s.get('kind')}{where}")
     rows.append("## Contacts (area where two parts touch: flat faces, or a mate's bearing seat)")
     rows += [f"- {c['a']} / {c['b']}: {c['area_mm2']:.4g} mm^2"
-             + (f" (bearing at {', '.join(c['mates'])})" if c.get("mates") and c.get("bearing_mm2", 0) >= c.get("face_mm2", 0) else "")
+             + (f" (bearing at {', '.join(c['mates'])})"
+                if c.get("mates") and c.get("bearing_mm2", 0) >= c.get("face_mm2", 0) else "")
              for c in evidence.get("contacts", [])] or ["- none"]
     rows.append("## Mates (world anchor mm, world axis = the frame's +Z)")
     for m in model.mates:

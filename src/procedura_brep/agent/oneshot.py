@@ -11,13 +11,24 @@ from __future__ import annotations
 import logging
 import re
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from collections.abc import Callable
 from typing import Any
 
-from ..llm import (BudgetExceeded, Client, Image, Ledger, LLMError, Message, Request, Settings,
-                   Transcript, build_client, preflight)
+from ..llm import (
+    BudgetExceeded,
+    Client,
+    Image,
+    Ledger,
+    LLMError,
+    Message,
+    Request,
+    Settings,
+    Transcript,
+    build_client,
+    preflight,
+)
 from ..llm.errors import MalformedReplyError
 from ..paths import write_atomic
 from ..pipeline import BuildResult, build, dump_json

@@ -82,7 +82,8 @@ def refine(host: Host, source: str, *, intro: str, max_edits: int, max_actions: 
         bench_type: a :class:`RefineBench` subclass with stricter edit rules (revise).
     """
     from ..render.views import VIEWS
-    bench = (bench_type or RefineBench)(host, critic_system=critic_system, task=task, allowed=allowed, critic_role=roles[1])
+    bench = (bench_type or RefineBench)(host, critic_system=critic_system, task=task, allowed=allowed,
+                                        critic_role=roles[1])
     session = RefineSession(bench, source, max_edits=max_edits, max_actions=max_actions)
     system = (template("fixer_system").replace("{views}", ", ".join(VIEWS)).replace("{edits}", str(max_edits)))
     msgs: list[Message] = [Message.user(intro, *host._refs())]

@@ -32,10 +32,10 @@ from ..llm.errors import BudgetExceeded, LLMError
 from ..paths import write_atomic
 from ..program.model import CompiledModel
 from ..program.splice import SpliceError, empty_program, parse_reply, replace_part, splice
+from . import reference as reference_image
 from .context import CommittedPart, build_request, captions
 from .materials import materials_stage
 from .plan import Plan, PlanError, PlannedMate, PlannedPart, parse_plan
-from . import reference as reference_image
 from .prompts import reference, template
 from .reference import Reference
 from .refine import PAIR_VIEWS, findings_text, refine

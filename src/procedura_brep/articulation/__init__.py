@@ -10,8 +10,18 @@ Example:
 """
 
 from .mass import MassProps, link_masses
-from .tree import (Articulation, ArticulationError, Base, Drive, Joint, JointDof, Link, articulate,
-                   default_drive, joint_limits)
+from .tree import (
+    Articulation,
+    ArticulationError,
+    Base,
+    Drive,
+    Joint,
+    JointDof,
+    Link,
+    articulate,
+    default_drive,
+    joint_limits,
+)
 
 
 def mates_evidence(model):  # noqa: ANN001, ANN201 - thin lazy wrapper

@@ -26,7 +26,6 @@ from ..kernel import Mesh, bbox
 from ..program.model import CompiledModel
 
 
-
 def _tri_data(mesh: Mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     v = mesh.vertices[mesh.faces]
     area = 0.5 * np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1)

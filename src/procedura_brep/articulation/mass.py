@@ -3,7 +3,8 @@
 Each part's mass is ``volume * density`` with the density from
 the model's material library (``CompiledModel.materials``: the built-in table
 :data:`procedura_brep.materials.MATERIALS`, kg/m^3, e.g. steel 7850, aluminium 2700, ABS 1050,
-rubber 1200, plus the program's own ``material(...)`` declarations). Centre of mass and the inertia tensor about it come from OCCT's exact volume
+rubber 1200, plus the program's own ``material(...)`` declarations). Centre of mass and the inertia
+tensor about it come from OCCT's exact volume
 integrals; parts combine with the parallel-axis theorem. Results are in SI (kg, m, kg m^2) and
 expressed in the link frame. A link never has zero mass or a singular inertia: tiny values are
 floored at :data:`MIN_MASS_KG` / :data:`MIN_INERTIA_KGM2`.

@@ -197,7 +197,8 @@ def _items(out: Path, meta: dict[str, Any], cases: tuple[Case, ...], variants: t
     return items
 
 
-def _judge(out: Path, items: list[Item], judge_model: str, base_url: str | None) -> tuple[dict[str, Any], dict[str, Any]]:
+def _judge(out: Path, items: list[Item], judge_model: str,
+           base_url: str | None) -> tuple[dict[str, Any], dict[str, Any]]:
     """Judge the items; the transcript goes to ``DIR/judge/transcript.jsonl`` (replaced at the
     end, so a replay of the old one can read it while the new one is written)."""
     jdir = Path(out) / "judge"

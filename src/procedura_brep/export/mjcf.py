@@ -12,8 +12,10 @@ rest-contact check is battery B3).
 
 Actuators follow each joint's ``drive`` in the :class:`~procedura_brep.articulation.Articulation`:
 a position servo per ``position``-driven DOF, a velocity servo per ``velocity``-driven one (the
-articulation gives continuous joints velocity drives). A cylindrical joint is two joints on one body, both at its origin about/along
-``0 0 1``: ``<mate>__slide`` (slide) then ``<mate>__turn`` (hinge), each with its own servo. Position gains are scaled from the joint-space inertia so every servo has the
+articulation gives continuous joints velocity drives). A cylindrical joint is two joints on one
+body, both at its origin about/along
+``0 0 1``: ``<mate>__slide`` (slide) then ``<mate>__turn`` (hinge), each with its own servo.
+Position gains are scaled from the joint-space inertia so every servo has the
 same natural frequency (:data:`SERVO_HZ`); a velocity servo's gain is at least effort / velocity
 (full effort at stall), since a wheel carries the vehicle's load, not just its own inertia.
 Every actuator's force is limited by the mate's effort. A spherical joint (MuJoCo ``ball``,

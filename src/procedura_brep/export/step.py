@@ -321,8 +321,8 @@ def read_step_parts(data: bytes) -> list[StepPart]:
     Raises:
         KernelError: the file cannot be read or transferred.
     """
-    from OCP.TDF import TDF_Label
     from OCP.collections import Sequence_TDF_Label as TDF_LabelSequence
+    from OCP.TDF import TDF_Label
     from OCP.TopLoc import TopLoc_Location
     from OCP.XCAFDoc import XCAFDoc_DocumentTool, XCAFDoc_ShapeTool
 

@@ -33,8 +33,8 @@ import numpy as np
 
 from ..articulation.mass import MassProps, link_masses
 from ..articulation.tree import Articulation, Joint, articulate
-from ..mates.kinds import REVOLUTE, JointKind
 from ..materials import get
+from ..mates.kinds import REVOLUTE, JointKind
 from ..program.model import CompiledModel
 from .meshes import collision_pieces, sim_mesh, stl_bytes, to_local_m
 

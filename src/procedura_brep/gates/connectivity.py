@@ -4,7 +4,8 @@ Pieces are the connected pieces of each part's welded tessellation (union-find o
 vertices, so a part that is two disjoint solids is two pieces; the shells of one solid, such as
 an inner void, are joined since a solid is one body). Two pieces join when their exact
 B-rep solids are within :data:`~procedura_brep.gates.geometry.CONNECT_MM`: bounding boxes grown by
-that distance are checked first (a sort-and-sweep along the most spread axis, near-linear), then a cheap positive test (two mesh vertices,
+that distance are checked first (a sort-and-sweep along the most spread axis, near-linear), then a
+cheap positive test (two mesh vertices,
 which lie on the exact surfaces, within the distance, for single-piece parts), and only then
 ``BRepExtrema_DistShapeShape``, whose result is cached by the two parts' digests. Then::
 

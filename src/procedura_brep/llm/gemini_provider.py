@@ -10,7 +10,7 @@ from .errors import ConfigError
 from .keys import GEMINI_KEY_VARS, resolve_key
 from .messages import Message, Reply, Request, Usage
 from .network import ensure_network_allowed
-from .retry import RetryPolicy, Retryable, call_with_retries, retry_settings
+from .retry import Retryable, RetryPolicy, call_with_retries, retry_settings
 from .sdk_errors import classify_sdk_error
 
 __all__ = ["GeminiProvider", "gemini_config", "parse_gemini_response", "to_gemini_contents"]

@@ -22,7 +22,7 @@ from .errors import ConfigError, ProviderError, one_line
 from .keys import key_vars_for_openai, resolve_key, resolve_openai_base_url
 from .messages import Image, Message, Reply, Request, Usage
 from .network import ensure_network_allowed, is_loopback
-from .retry import RetryPolicy, Retryable, call_with_retries, retry_settings, parse_retry_after
+from .retry import Retryable, RetryPolicy, call_with_retries, parse_retry_after, retry_settings
 
 __all__ = ["MISSING_SDK_MESSAGE", "OpenAIProvider", "parse_chat_completion", "to_openai_messages"]
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from build123d import (Align, Box, Cylinder, Location, Part, Pos, Rot, Sphere, chamfer)
+from build123d import Align, Box, Cylinder, Location, Part, Pos, Rot, Sphere, chamfer
 
 from .fits import Fit, iso273
 from .vocabulary import TYPES

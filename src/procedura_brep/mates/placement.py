@@ -14,8 +14,18 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .motion import (check_linear, check_tilt, motion_delta, rigid_inverse, rot_x, rot_y, rot_z,
-                     spherical_delta, spherical_tilt_deg, trans)
+from .motion import (
+    check_linear,
+    check_tilt,
+    motion_delta,
+    rigid_inverse,
+    rot_x,
+    rot_y,
+    rot_z,
+    spherical_delta,
+    spherical_tilt_deg,
+    trans,
+)
 from .vocabulary import TYPES
 
 __all__ = ["check_linear", "check_tilt", "check_value", "delta", "home_value", "motion_delta",

@@ -2,7 +2,8 @@
 
 A program starts with ``from procedura_brep.program import *``, which brings in build123d's
 modelling vocabulary (solids, sketches, operations, ``Location``, ``Axis``, ``Align`` ...),
-``math``, and the declarations below (``material``, ``part``, ``paint``, ``frames``, ``mate``). File import/export functions are *not* exported:
+``math``, and the declarations below (``material``, ``part``, ``paint``, ``frames``, ``mate``).
+File import/export functions are *not* exported:
 programs never touch files.
 
 Example (a complete two-part program)::

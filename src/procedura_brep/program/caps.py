@@ -27,7 +27,6 @@ import numpy as np
 
 from ..config import TOL, SandboxLimits
 
-
 #: BRepMesh makes about this many times the ideal chord-grid count on curved faces.
 CURVED_FACTOR = 3.0
 
@@ -117,8 +116,8 @@ def _face_triangles(face: Any) -> float:
 
 
 def _bbox(shape: Any) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-    from OCP.BRepBndLib import BRepBndLib
     from OCP.Bnd import Bnd_Box
+    from OCP.BRepBndLib import BRepBndLib
     box = Bnd_Box()
     BRepBndLib.Add_s(shape, box, False)
     if box.IsVoid():

@@ -25,7 +25,8 @@ def harden_kernel() -> None:
       ``**{"font" + "_path": p}``) resolves its font through ``Compound.resolve_font``; the
       wrapper refuses any font file and any font name that looks like a path, so programs use
       the built-in and system fonts by family name only.
-    * Lazy imports: the common codecs (:data:`CODECS`) are imported and one ``Text`` is made, so what text handling loads on first use (``encodings.mac_roman``, font tables)
+    * Lazy imports: the common codecs (:data:`CODECS`) are imported and one ``Text`` is made, so
+      what text handling loads on first use (``encodings.mac_roman``, font tables)
       is in memory before a child drops privileges: as its own uid, the child often cannot
       read the interpreter's standard library (here it lives under ``/root``), which is why
       plain ``Text("x", 5)`` failed with ``LookupError: unknown encoding: mac_roman``.

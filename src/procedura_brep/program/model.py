@@ -17,9 +17,9 @@ from typing import Any
 import numpy as np
 
 from ..findings import Finding, cap_text, failed  # noqa: F401 - Finding, cap_text re-exported
+from ..materials import MATERIALS, Material, default_library, get, library_to_json
 from ..mates.kinds import Motion
 from ..mates.vocabulary import TYPES
-from ..materials import MATERIALS, Material, default_library, get, library_to_json
 
 _MESHES: dict[str, Any] = {}
 _MESH_CACHE_SIZE = 512

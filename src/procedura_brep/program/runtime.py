@@ -30,10 +30,10 @@ from ..mates import check_options, get_type
 from ..mates import placement as pl
 from ..mates.kinds import Motion
 from . import blocks, cache, caps, guards, keys, policy, registry
+from .model import CompiledMate, CompiledModel, CompiledPart, Finding
+from .sections import parse_sections
 from .values import as_solid as _as_solid
 from .values import exc_text as _exc_text
-from .model import CompiledMate, CompiledModel, CompiledPart, Finding, cap_text
-from .sections import parse_sections
 
 SAFE_BUILTINS = (
     "abs", "all", "any", "bool", "dict", "divmod", "enumerate", "filter", "float", "frozenset",
@@ -245,7 +245,7 @@ def _exec_module(b: _Build, tree: ast.Module, glb: dict[str, Any]) -> None:
     except ProceduraError as exc:
         b.fail("declaration", str(exc), line=getattr(exc, "line", None) or _program_line(sys.exc_info()[2]),
                mate=getattr(exc, "mate", None))
-    except BaseException as exc:  # noqa: BLE001 - any failure of untrusted code is a finding
+    except BaseException as exc:  # noqa: BLE001 - any failure of program code is a finding - any failure of untrusted code is a finding
         b.fail("module-exception", _exc_text(exc), line=_program_line(exc.__traceback__))
     if guards.builder_open():
         b.fail("policy", "module-level code left a builder context (BuildPart/BuildSketch/"
@@ -346,7 +346,7 @@ def _eval_part(b: _Build, decl: registry.PartDecl, params: dict[str, Any], glb: 
             return
         b.figures[decl.name] = fig
         b.solids[decl.name] = solid
-    except BaseException as exc:  # noqa: BLE001
+    except BaseException as exc:  # noqa: BLE001 - any failure of program code is a finding
         if isinstance(exc, (KeyboardInterrupt, SystemExit)):
             raise
         line = _program_line(exc.__traceback__) or decl.line

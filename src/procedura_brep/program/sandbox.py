@@ -423,7 +423,8 @@ def compile_source(source: str, *, name: str = "model", limits: SandboxLimits | 
     return (worker or default_worker()).compile(source, opts)
 
 
-__all__ = ["CompileOptions", "RemoteWorker", "Worker", "compile_source", "connect_server", "default_worker", "clean_env",
+__all__ = ["CompileOptions", "RemoteWorker", "Worker", "compile_source", "connect_server", "default_worker",
+           "clean_env",
            "clean_stale_temp", "kill_default_worker", "refuse_oversized", "replace"]
 
 

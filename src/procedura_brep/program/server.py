@@ -56,7 +56,8 @@ def socket_path() -> Path:
     if os.environ.get(ENV_SOCKET):
         return Path(os.environ[ENV_SOCKET])
     runtime = os.environ.get("XDG_RUNTIME_DIR")
-    base = Path(runtime) / "procedura-brep" if runtime else Path(tempfile.gettempdir()) / f"procedura-brep-{os.getuid()}"
+    base = (Path(runtime) / "procedura-brep" if runtime
+            else Path(tempfile.gettempdir()) / f"procedura-brep-{os.getuid()}")
     return base / "worker.sock"
 
 

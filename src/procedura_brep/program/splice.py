@@ -485,7 +485,7 @@ def splice(program: str, reply: PartReply | str, *, after: str | None = None,
     lines = list(prog.lines)
     for lineno, text in updates.items():
         lines[lineno - 1] = text
-    for at, b, rows in sorted(inserts, key=lambda x: x[0], reverse=True):
+    for at, _block, rows in sorted(inserts, key=lambda x: x[0], reverse=True):
         lines[at:at] = [t for t, _ in rows]
     source = "\n".join(lines)
     source = re.sub(r"\n{4,}", "\n\n\n", source)
@@ -546,7 +546,7 @@ def param_readers(source: str) -> dict[str, set[str]]:
             owner = _owner(section, stmt)
             if owner in reads:
                 reads[owner] |= names(stmt)
-    for part, seen in reads.items():
+    for seen in reads.values():
         todo = [n for n in seen if n in prog.helpers or n in prog.params]
         while todo:
             n = todo.pop()

@@ -302,7 +302,8 @@ def model_from_json(d: Any, *, name: str | None = None, cache_dir: str | None = 
                                                    else _num(v, f"param {k}"))
     timings = {_text(k, "timings key", 2 * MAX_NAME): _num(v, f"timings[{k!r:.40}]")
                for k, v in _dict(d.get("timings", {}), "timings", 6 * SANDBOX.max_parts + 64).items()}
-    findings = [finding_from_json(f, f"findings[{i}]") for i, f in enumerate(_list(d.get("findings", []), "findings", 1000))]
+    findings = [finding_from_json(f, f"findings[{i}]")
+                for i, f in enumerate(_list(d.get("findings", []), "findings", 1000))]
     model_name = name if name is not None else _name(d.get("name"), "name", IDENT)
     return CompiledModel(name=model_name, params=params, parts=list(parts.values()), mates=mates,
                          findings=findings, timings=timings, materials=library)

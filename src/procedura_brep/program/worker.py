@@ -4,7 +4,8 @@ disposable child per compile (forked ahead of its request: :class:`_Spare`).
 Protocol: one JSON object per line on stdin (``{"id", "source", "name", "scratch", "limits"}``),
 one JSON object per line on stdout (``{"id", "status", "detail"}``); the child writes its
 ``result.json`` into the scratch directory, then says so on its done pipe, and the zygote
-answers at once (status ``done``) and reaps the child after the answer has left. The zygote itself never runs program code and never
+answers at once (status ``done``) and reaps the child after the answer has left. The zygote itself
+never runs program code and never
 meshes (a fork after OCCT's parallel mesher hangs), so every child starts clean.
 
 Run as ``python -m procedura_brep.program.worker``.
@@ -19,7 +20,6 @@ import signal
 import sys
 import time
 from typing import Any
-
 
 #: A root-run worker's children each switch to their own unprivileged uid (and gid),
 #: ``CHILD_UID_BASE + pid % CHILD_UID_SPAN``: no passwd entry, no files, and no other process
@@ -157,7 +157,7 @@ class _Spare:
                     chunks.append(chunk)
                 if chunks:
                     _child(json.loads(b"".join(chunks)), done_w)
-            except BaseException:  # noqa: BLE001
+            except BaseException:  # noqa: BLE001 - the forked child reports any failure as exit 3
                 code = 3
             finally:
                 os._exit(code)
@@ -334,9 +334,9 @@ def main() -> None:
     _stub_unused_imports()
     import build123d  # noqa: F401 - the whole point: pay the import once
 
-    from . import guards, runtime  # noqa: F401
+    from .. import kernel  # noqa: F401 - imported once in the zygote, inherited by every child
     from ..mates import features, joints  # noqa: F401 - every compile uses them: load them once
-    from .. import kernel  # noqa: F401
+    from . import guards, runtime  # noqa: F401 - imported once in the zygote, inherited by every child
     guards.harden_kernel()
     guards.baseline()
     from . import caps, isolation, trust  # noqa: F401 - imported before any child drops privileges
@@ -356,7 +356,7 @@ def main() -> None:
         req = json.loads(line)
         try:
             reply = _run_one(req, spare)
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:  # noqa: BLE001 - one bad request must not end the zygote
             reply = {"id": req.get("id"), "status": "error", "detail": str(exc)}
         out.write(json.dumps(reply) + "\n")
         out.flush()

@@ -11,11 +11,20 @@ from ..headless import ensure_headless
 
 ensure_headless()
 
-from .api import (CLOSE_UP_VIEWS, MODES, Focus, RenderResult, legend_of, part_frames,  # noqa: E402
-                  render_images, render_to_dir, resolve_focus)
-from .cache import ViewStatus, geometry_key, views_status  # noqa: E402
-from .palette import PALETTE, part_colors  # noqa: E402
-from .views import DEFAULT_VIEWS, VIEWS, View, fit_camera, parse_views  # noqa: E402
+from .api import (  # noqa: E402 - after ensure_headless(): GL picks EGL
+                  CLOSE_UP_VIEWS,
+                  MODES,
+                  Focus,
+                  RenderResult,
+                  legend_of,
+                  part_frames,
+                  render_images,
+                  render_to_dir,
+                  resolve_focus,
+)
+from .cache import ViewStatus, geometry_key, views_status  # noqa: E402 - after ensure_headless(): GL picks EGL
+from .palette import PALETTE, part_colors  # noqa: E402 - after ensure_headless(): GL picks EGL
+from .views import DEFAULT_VIEWS, VIEWS, View, fit_camera, parse_views  # noqa: E402 - after ensure_headless(): GL picks EGL
 
 __all__ = ["CLOSE_UP_VIEWS", "DEFAULT_VIEWS", "MODES", "PALETTE", "VIEWS", "Focus", "RenderResult",
            "View", "ViewStatus", "ensure_headless", "fit_camera", "geometry_key", "legend_of",

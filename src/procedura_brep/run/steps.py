@@ -74,14 +74,14 @@ def settle() -> None:
 
 def _warm_imports() -> None:
     """Import what gates and exports need while the worker boots."""
-    import scipy.spatial  # noqa: F401
-    import trimesh  # noqa: F401
+    import scipy.spatial  # noqa: F401 - imported early, beside the worker's boot
+    import trimesh  # noqa: F401 - imported early, beside the worker's boot
 
-    from .. import gates  # noqa: F401
-    from ..export import bundle  # noqa: F401
+    from .. import gates  # noqa: F401 - imported early, beside the worker's boot
+    from ..export import bundle  # noqa: F401 - imported early, beside the worker's boot
     try:
-        import mujoco  # noqa: F401
-        from pxr import Usd, UsdPhysics  # noqa: F401
+        import mujoco  # noqa: F401 - imported early, beside the worker's boot
+        from pxr import Usd, UsdPhysics  # noqa: F401 - imported early, beside the worker's boot
     except ImportError:  # pragma: no cover - reported by doctor
         pass
 

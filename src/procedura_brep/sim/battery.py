@@ -8,7 +8,8 @@ are what gets checked. :func:`failures` turns a report into findings, one per fa
 
 B0 model fidelity (``model.xml``) · B1 settle (``model.xml``) · B2 joint sweeps (root welded,
 gravity off; exact-solid penetration sampled along every range, spherical cones included) · B3
-rest-contact scan on exact solids · B4 wheeled mobility · B5 URDF re-import · B6 USD validation · B7 random-control smoke run.
+rest-contact scan on exact solids · B4 wheeled mobility · B5 URDF re-import · B6 USD validation ·
+B7 random-control smoke run.
 A failed check saves up to 8 frames of its phase under ``renders/sim/``.
 """
 
@@ -29,12 +30,12 @@ import numpy as np
 from ..articulation import Articulation, articulate, link_masses
 from ..config import TOL
 from ..findings import Finding
+from ..paths import program_name
 from ..program.model import CompiledModel
 from . import contact
 from .dynamics import check_b1, check_b4, check_b7, sweep_joints
 from .fidelity import check_b0, check_b5, check_b6
 from .frames import render_frames
-from ..paths import program_name
 from .report import BatteryReport, CheckResult
 
 if TYPE_CHECKING:
@@ -167,6 +168,7 @@ def _load(source: CompiledModel | str | Path, out_dir: Path | None, exported: bo
 def _ball_traj(m, joint: str, direction_deg: float, tilt_rad: float) -> list[np.ndarray]:
     """qpos states tilting one ball joint from rest to the given tilt (for frames)."""
     import mujoco
+
     from .sweep import tilt_quat
     qadr = int(m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, joint)])
     out = []
@@ -186,6 +188,7 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
     then the exact ones (:func:`.sweep.sweep_all`: shared with a second process on a second
     core), each given the values its joint reached."""
     import mujoco
+
     from .sweep import sweep_all
     m.opt.gravity[:] = 0.0  # the sweep tests range and collisions; gravity is B1's business
     floor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
@@ -382,6 +385,7 @@ def _run(model: CompiledModel, root: Path, wanted: tuple[str, ...], frames: bool
     bundle still being written) the checks that read no file (:data:`FILELESS`) run first, and
     the report lists every check in :data:`ALL_CHECKS` order all the same."""
     import mujoco
+
     from ..export.mjcf import build_mjcf
     art = art or articulate(model)
     masses = link_masses(model, art)

@@ -146,7 +146,8 @@ def invariant_under_rotation(face, point: np.ndarray, axis: np.ndarray, o) -> bo
     a surface of revolution about the axis bounded only by circles about it and seams (it maps
     onto itself)."""
     from OCP.BRepAdaptor import BRepAdaptor_Curve, BRepAdaptor_Surface
-    from OCP.GeomAbs import GeomAbs_CurveType, GeomAbs_SurfaceType as S
+    from OCP.GeomAbs import GeomAbs_CurveType
+    from OCP.GeomAbs import GeomAbs_SurfaceType as S
     surf = BRepAdaptor_Surface(face)
     kind = surf.GetType()
     if kind == S.GeomAbs_Plane:

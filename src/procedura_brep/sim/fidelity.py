@@ -14,11 +14,10 @@ from pathlib import Path
 import numpy as np
 
 from ..articulation.mass import MassProps
-from ..config import TOL
 from ..articulation.tree import Articulation
+from ..config import TOL
 from ..mates.kinds import JOINT_KINDS, REVOLUTE
 from .report import CheckResult
-
 
 #: ``{joint type: MuJoCo joint type}`` of every kind exported as one MuJoCo joint.
 MJ_TYPES = {k.name: k.mjcf for k in JOINT_KINDS.values() if k.mjcf is not None}
@@ -141,6 +140,7 @@ def check_b5(art: Articulation, masses: dict[str, MassProps], urdf_dir: Path) ->
     profile passes yourdfpy validation (and ``check_urdf`` when installed)."""
     import mujoco
     import yourdfpy
+
     from ..export.urdf import ROBOT_FILES
     problems: list[str] = []
     measured: dict[str, object] = {}
@@ -206,6 +206,7 @@ def check_b6(art: Articulation, usda: Path) -> CheckResult:
     """B6: UsdValidation physics validators report 0 errors; joint frames agree; one
     articulation root."""
     from pxr import Usd, UsdPhysics, UsdValidation
+
     from ..export.usd import usd_joint_frames
     stage = Usd.Stage.Open(str(usda))
     names = _validator_names()
@@ -247,6 +248,7 @@ def bundle_joint_frames(root: Path, art: Articulation
     import mujoco
     import yourdfpy
     from pxr import Usd
+
     from ..export.urdf import ROBOT_FILES
     from ..export.usd import usd_joint_frames
     base = np.array(art.root.frame, dtype=float)

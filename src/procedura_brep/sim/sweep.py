@@ -59,10 +59,10 @@ from scipy.spatial import cKDTree
 from .. import kernel
 from ..articulation.tree import Articulation, Joint
 from ..config import TOL
+from ..gates.geometry import box_pairs
 from ..mates.kinds import CONTINUOUS, PRISMATIC, REVOLUTE, Motion
 from ..mates.placement import motion_delta, rigid_inverse, rot_x, rot_z, trans
 from ..program.model import CompiledModel
-from ..gates.geometry import box_pairs
 from .cells import Cover, Face, cell_side, cover_of, cover_radius, faces, faces_along, surface
 from .contact import Overlap, exact_overlap
 
