@@ -1,4 +1,4 @@
-"""Incremental build benchmark (DESIGN.md section 10; issue 3 item 7, issue 12 item 3).
+"""Incremental build benchmark (README, Performance; issue 3 item 7, issue 12 item 3).
 
 Generates synthetic programs of 10, 40 and 160 parts (``procedura_brep.testing.programs.tower``:
 filleted, bored blocks, each seated on the one below by a peg_socket and turned 15 deg, so no

@@ -1,6 +1,6 @@
 """procedura-brep: a text prompt to an editable CAD assembly.
 
-The package is layered (see STYLE.md): ``errors``/``config`` -> ``mates`` -> ``program`` ->
+The package is layered (see docs/architecture.md): ``errors``/``config`` -> ``mates`` -> ``program`` ->
 ``gates`` -> ``export`` -> ``sim``/``render`` -> ``agent`` -> ``cli``. ``llm`` sits to the side.
 Importing this package is cheap: nothing here imports the CAD kernel.
 """

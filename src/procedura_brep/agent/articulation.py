@@ -1,4 +1,4 @@
-"""The articulation stage (DESIGN.md section 5, issue 13 stage 7): evidence, one planning call,
+"""The articulation stage (docs/agent.md, "The articulation stage"): evidence, one planning call,
 gated mate edits, the MuJoCo battery, and the battery fixer in rounds on a failure.
 
 1. Geometric evidence (:func:`procedura_brep.articulation.mates_evidence`) and the links and

@@ -1,4 +1,4 @@
-"""The materials stage of the staged agent (DESIGN.md section 5; issue 13, stage 6).
+"""The materials stage of the staged agent (docs/agent.md, "The materials stage").
 
 After refine, three model calls, each gated, each recorded in ``report.json`` (``materials``)
 and, when it changes the program, in ``history/``:

@@ -1,6 +1,6 @@
 """One-shot generation: the whole program in one model call, then compile, gate, build.
 
-This is the control mode of DESIGN.md section 5 (the staged plan/build/refine agent builds on
+This is the control mode of docs/agent.md (the staged plan/build/refine agent builds on
 the same pieces). Up to ``attempts`` calls: a reply that is not a program, or a program that
 fails to compile or pass its mates, is answered with the measured findings and retried.
 Every request and reply goes to ``OUT/transcript.jsonl``, which replays with ``replay:OUT``.

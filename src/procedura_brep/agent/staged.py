@@ -1,4 +1,4 @@
-"""The staged agent (DESIGN.md section 5, the paper's section 3): plan, one-direction review,
+"""The staged agent (docs/agent.md, the paper's section 3): plan, one-direction review,
 mate-driven build one part per call, decoupled-critic refine, materials, then the final build.
 
 One frozen model answers every call through a :class:`~procedura_brep.llm.Client`; each call has
