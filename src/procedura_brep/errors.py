@@ -7,6 +7,8 @@ wrong, the value, and (where there is one) the allowed range or the fix.
 
 from __future__ import annotations
 
+from typing import Any
+
 
 class ProceduraError(Exception):
     """Base class for every error this package raises on purpose."""
@@ -40,7 +42,8 @@ class RangeError(ProceduraError, ValueError):
 class CompileError(ProceduraError):
     """The sandboxed compile failed; ``findings`` holds one entry per problem."""
 
-    def __init__(self, message: str, findings: list | None = None) -> None:
+    # ``findings``: findings.Finding objects (Any: the base of the layers imports nothing)
+    def __init__(self, message: str, findings: list[Any] | None = None) -> None:
         self.findings = list(findings or [])
         super().__init__(message)
 

@@ -213,7 +213,8 @@ def _collect(pid: int, fd: int, lim: ParentLimits, current: dict[str, str],
     stage = current["stage"]
     mib = lim.address_space_bytes // 2**20
     if final is not None and "result" in final:
-        return final["result"]
+        result: dict[str, Any] = final["result"]
+        return result
     if final is not None:
         f = final["failure"]
         if f["kind"] == "memory":

@@ -9,14 +9,19 @@ from __future__ import annotations
 import io
 from dataclasses import dataclass
 from functools import lru_cache
+from types import ModuleType
+from typing import Any, TypeAlias
 
 import numpy as np
 
 from .config import TOL
 from .errors import KernelError
 
+# A TopoDS_Shape (or a subclass): OCP ships no stubs or py.typed, so OCCT objects are Any here.
+Shape: TypeAlias = Any
 
-def _ocp():  # lazy: keeps `procedura-brep --help` instant
+
+def _ocp() -> dict[str, ModuleType]:  # lazy: keeps `procedura-brep --help` instant
     from OCP import (
         BinTools,
         Bnd,
@@ -45,7 +50,7 @@ def warm_up() -> None:
     from OCP import STEPCAFControl, XCAFDoc  # noqa: F401 - the STEP writer's modules
 
 
-def read_brep(data: bytes):
+def read_brep(data: bytes) -> Shape:
     """A TopoDS_Shape from OCCT binary BRep bytes."""
     o = _ocp()
     shape = o["TopoDS"].TopoDS_Shape()
@@ -58,7 +63,7 @@ def read_brep(data: bytes):
     return shape
 
 
-def write_brep(shape) -> bytes:
+def write_brep(shape: Shape) -> bytes:
     """OCCT binary BRep bytes of ``shape``."""
     o = _ocp()
     buf = io.BytesIO()
@@ -66,7 +71,7 @@ def write_brep(shape) -> bytes:
     return buf.getvalue()
 
 
-def bake_location(shape):
+def bake_location(shape: Shape) -> Shape:
     """``shape`` with its location applied to its geometry and an empty location.
 
     Part solids cross process boundaries and enter STEP as plain local geometry; a shape that
@@ -83,7 +88,7 @@ def bake_location(shape):
     return op.Shape()
 
 
-def trsf(matrix: np.ndarray):
+def trsf(matrix: np.ndarray) -> Any:
     """gp_Trsf of a rigid 4x4 matrix (mm)."""
     o = _ocp()
     t = o["gp"].gp_Trsf()
@@ -92,13 +97,13 @@ def trsf(matrix: np.ndarray):
     return t
 
 
-def located(shape, matrix: np.ndarray):
+def located(shape: Shape, matrix: np.ndarray) -> Shape:
     """``shape`` moved by the rigid transform ``matrix`` (shares geometry, no copy)."""
     o = _ocp()
     return shape.Moved(o["TopLoc"].TopLoc_Location(trsf(matrix)))
 
 
-def volume(shape) -> float:
+def volume(shape: Shape) -> float:
     """Solid volume, mm^3 (sums every solid of a compound)."""
     o = _ocp()
     props = o["GProp"].GProp_GProps()
@@ -106,7 +111,7 @@ def volume(shape) -> float:
     return float(props.Mass())
 
 
-def area(shape) -> float:
+def area(shape: Shape) -> float:
     """Surface area, mm^2."""
     o = _ocp()
     props = o["GProp"].GProp_GProps()
@@ -114,7 +119,7 @@ def area(shape) -> float:
     return float(props.Mass())
 
 
-def bbox(shape, *, optimal: bool = True) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+def bbox(shape: Shape, *, optimal: bool = True) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
     """((xmin, ymin, zmin), (xmax, ymax, zmax)) in mm; exact (optimal) by default."""
     o = _ocp()
     box = o["Bnd"].Bnd_Box()
@@ -126,11 +131,11 @@ def bbox(shape, *, optimal: bool = True) -> tuple[tuple[float, float, float], tu
     return (lo.X(), lo.Y(), lo.Z()), (hi.X(), hi.Y(), hi.Z())
 
 
-def solids(shape) -> list:
+def solids(shape: Shape) -> list[Shape]:
     """The solids of ``shape`` (a compound, a solid ...), in explorer order; empty if none."""
     from OCP.TopAbs import TopAbs_SOLID
     from OCP.TopExp import TopExp_Explorer
-    out = []
+    out: list[Shape] = []
     exp = TopExp_Explorer(shape, TopAbs_SOLID)
     while exp.More():
         out.append(exp.Current())
@@ -138,12 +143,12 @@ def solids(shape) -> list:
     return out
 
 
-def is_valid(shape) -> bool:
+def is_valid(shape: Shape) -> bool:
     """BRepCheck validity."""
     return bool(_ocp()["BRepCheck"].BRepCheck_Analyzer(shape).IsValid())
 
 
-def common_volume(a, b) -> float:
+def common_volume(a: Shape, b: Shape) -> float:
     """Volume of ``a & b`` (interference), mm^3."""
     o = _ocp()
     op = o["BRepAlgoAPI"].BRepAlgoAPI_Common(a, b)
@@ -164,7 +169,7 @@ class MeshTooLargeError(KernelError):
     """Meshing a shape would exceed ``TOL.mesh_max_triangles`` (raised before it is meshed)."""
 
 
-def mesh_deflection(shape) -> float:
+def mesh_deflection(shape: Shape) -> float:
     """The linear deflection (mm) the size rule gives ``shape``:
     ``max(TOL.mesh_linear_mm, TOL.mesh_linear_rel * bbox diagonal)``."""
     o = _ocp()
@@ -181,12 +186,12 @@ def mesh_deflection(shape) -> float:
     return max(TOL.mesh_linear_mm, TOL.mesh_linear_rel * diag)
 
 
-def _face(TopoDS, shape):
+def _face(TopoDS: Any, shape: Shape) -> Shape:
     """``shape`` downcast to a face (OCP spells the cast ``Face`` or ``Face_s``)."""
     return TopoDS.TopoDS.Face(shape) if hasattr(TopoDS.TopoDS, "Face") else TopoDS.TopoDS.Face_s(shape)
 
 
-def _mesh(shape, linear: float, angular: float, parallel: bool) -> int:
+def _mesh(shape: Shape, linear: float, angular: float, parallel: bool) -> int:
     """Mesh ``shape`` afresh (old triangulations removed); the raw triangle count."""
     o = _ocp()
     from OCP.BRepTools import BRepTools
@@ -207,7 +212,7 @@ def _mesh(shape, linear: float, angular: float, parallel: bool) -> int:
     return count
 
 
-def estimate_triangles(shape, *, linear: float, angular: float = TOL.mesh_angular_rad) -> int:
+def estimate_triangles(shape: Shape, *, linear: float, angular: float = TOL.mesh_angular_rad) -> int:
     """An estimate of the triangles :func:`tessellate` makes at these settings, read from the
     B-rep without meshing (:mod:`procedura_brep.mesh_budget`)."""
     from .mesh_budget import estimate_triangles as estimate
@@ -217,7 +222,7 @@ def estimate_triangles(shape, *, linear: float, angular: float = TOL.mesh_angula
         raise KernelError(f"estimating the mesh size failed: {exc}") from exc
 
 
-def tessellate(shape, *, linear: float | None = None, angular: float = TOL.mesh_angular_rad,
+def tessellate(shape: Shape, *, linear: float | None = None, angular: float = TOL.mesh_angular_rad,
                parallel: bool = False, name: str = "shape",
                max_triangles: int | None = None) -> Mesh:
     """Mesh ``shape``; vertices are in the shape's located (world) frame.

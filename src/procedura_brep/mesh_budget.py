@@ -25,6 +25,7 @@ cheap: no triangulation is built.
 from __future__ import annotations
 
 import math
+from typing import Any  # OCCT objects: OCP ships no stubs or py.typed
 
 #: Samples per parameter direction for faces and edges without a closed form.
 SAMPLES = 5
@@ -50,7 +51,7 @@ def _segments(length: float, radius: float, linear: float, angular: float) -> fl
     return length / h if math.isfinite(h) else 0.0
 
 
-def _sampled_face(surf, u0: float, u1: float, v0: float, v1: float, linear: float,
+def _sampled_face(surf: Any, u0: float, u1: float, v0: float, v1: float, linear: float,
                   angular: float) -> tuple[float, float]:
     from OCP.gp import gp_Pnt, gp_Vec
 
@@ -77,7 +78,7 @@ def _sampled_face(surf, u0: float, u1: float, v0: float, v1: float, linear: floa
     return max(rows_u), max(rows_v)
 
 
-def face_cells(face, linear: float, angular: float) -> float:
+def face_cells(face: Any, linear: float, angular: float) -> float:
     """``n_u * n_v`` for one face (see the module docstring)."""
     from OCP.BRepAdaptor import BRepAdaptor_Surface
     from OCP.BRepTools import BRepTools
@@ -110,7 +111,7 @@ def face_cells(face, linear: float, angular: float) -> float:
     return max(1.0, math.ceil(nu)) * max(1.0, math.ceil(nv))
 
 
-def edge_segments(edge, linear: float, angular: float) -> float:
+def edge_segments(edge: Any, linear: float, angular: float) -> float:
     """Mesh segments along one edge."""
     from OCP.BRepAdaptor import BRepAdaptor_Curve
     from OCP.GCPnts import GCPnts_AbscissaPoint
@@ -137,7 +138,7 @@ def edge_segments(edge, linear: float, angular: float) -> float:
     return max(1.0, total)
 
 
-def estimate_triangles(shape, *, linear: float, angular: float) -> int:
+def estimate_triangles(shape: Any, *, linear: float, angular: float) -> int:
     """Estimated triangle count of meshing ``shape`` at these deflections (no meshing)."""
     from OCP.TopAbs import TopAbs_EDGE, TopAbs_FACE
     from OCP.TopExp import TopExp_Explorer

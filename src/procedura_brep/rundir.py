@@ -158,8 +158,9 @@ def complete_report(out: Path) -> dict[str, Any] | None:
         return None
     if not isinstance(report, dict):
         return None
-    if report.get("kept_previous") and isinstance(report.get("previous"), dict):
-        return report["previous"]
+    previous = report.get("previous")
+    if report.get("kept_previous") and isinstance(previous, dict):
+        return previous
     complete = report.get("complete") is True or report.get("status") in COMPLETE
     return report if complete else None
 

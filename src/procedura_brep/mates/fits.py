@@ -22,7 +22,7 @@ Deviations are ISO 286-2:2010 values in micrometres for nominal sizes over 0 up 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
-from typing import Literal
+from typing import Any, Literal
 
 from ..errors import RangeError
 
@@ -82,7 +82,7 @@ class Fit:
         """Per-side interference (>= 0), mm: 0 for clearance fits."""
         return max(0.0, -self.offset)
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         d = asdict(self)
         d["offset"] = self.offset
         return d
@@ -110,6 +110,8 @@ def iso286(d: float, fit: FitClass) -> Fit:
     b = _band(d)
     um = 1e-3
     hole_lo, hole_hi = d, d + IT7_UM[b] * um  # H7: EI = 0, ES = IT7
+    lo: float
+    hi: float
     if fit == "clearance":
         es = G_ES_UM[b]
         lo, hi, iso = es - IT6_UM[b], es, "H7/g6"

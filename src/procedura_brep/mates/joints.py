@@ -66,19 +66,20 @@ class KinematicJoint:
             check_value(self.name, self.mtype, value, limits=self.limits, cone=self.cone,
                         angle_limits=self.angle_limits)
         if self.motion is Motion.SLIDE_TURN:
-            z, ang = (float(v) for v in value)  # type: ignore[union-attr]
+            z, ang = (float(v) for v in value)  # type: ignore[union-attr]  # SLIDE_TURN: (z, angle)
             self.joint.connect_to(self.child, position=z)
-            self.turn.move(ang)  # type: ignore[union-attr]
+            self.turn.move(ang)  # type: ignore[union-attr]  # _slide_turn always sets the inner turn
         elif self.motion is Motion.TURN:
-            self.joint.connect_to(self.child, angle=float(value) - self.offset_deg)  # type: ignore[arg-type]
+            self.joint.connect_to(self.child, angle=float(value) - self.offset_deg)  # type: ignore[arg-type]  # TURN: a scalar
         elif self.motion is Motion.SLIDE:
-            self.joint.connect_to(self.child, position=float(value))  # type: ignore[arg-type]
+            self.joint.connect_to(self.child, position=float(value))  # type: ignore[arg-type]  # SLIDE: a scalar
         else:
-            self.joint.connect_to(self.child, angles=tuple(value))  # type: ignore[arg-type]
+            self.joint.connect_to(self.child, angles=tuple(value))  # type: ignore[arg-type]  # BALL: (rx, ry, rz)
 
 
 def _rotation_only(loc: Location) -> Location:
-    return Location((0, 0, 0), loc.orientation)
+    o = loc.orientation  # Euler angles (deg) as a Vector; the overloads want a tuple
+    return Location((0, 0, 0), (o.X, o.Y, o.Z))
 
 
 def rigid_place(parent: Any, child: Any, f_parent: Location, f_child: Location, label: str) -> Location:
@@ -89,7 +90,8 @@ def rigid_place(parent: Any, child: Any, f_parent: Location, f_child: Location, 
     pj = RigidJoint(f"{label}@parent", parent, joint_location=parent.location * f_parent)
     cj = RigidJoint(f"{label}@child", child, joint_location=child.location * f_child)
     pj.connect_to(cj)
-    return child.location
+    placed: Location = child.location
+    return placed
 
 
 def kinematic(mtype: str, parent: Any, child: Any, f_parent: Location, f_child: Location, label: str,
@@ -133,7 +135,7 @@ def _world_axis(parent: Any, f_parent: Location) -> tuple[Location, Any, Any]:
 
 def _turn(parent: Any, child: Any, f_parent: Location, f_child: Location, label: str, *,
           limits: tuple[float, float] | None, **_: Any) -> KinematicJoint:
-    _, origin, z_dir = _world_axis(parent, f_parent)
+    _world, origin, z_dir = _world_axis(parent, f_parent)
     lo, hi = limits if limits is not None else (-math.inf, math.inf)
     probe = RevoluteJoint(f"{label}@probe", parent, axis=Axis(origin, z_dir))
     rel = f_parent.inverse() * probe.relative_axis.location
@@ -151,7 +153,7 @@ def _slide(parent: Any, child: Any, f_parent: Location, f_child: Location, label
            limits: tuple[float, float] | None, **_: Any) -> KinematicJoint:
     if limits is None:
         raise ValueError("a prismatic joint needs limits")
-    _, origin, z_dir = _world_axis(parent, f_parent)
+    _world, origin, z_dir = _world_axis(parent, f_parent)
     joint = LinearJoint(label, parent, axis=Axis(origin, z_dir), linear_range=limits)
     carrier = child.location * f_child * _rotation_only(f_parent).inverse()
     return KinematicJoint("", joint, RigidJoint(f"{label}@child", child, joint_location=carrier),

@@ -60,7 +60,8 @@ def spherical_delta(value: Sequence[float]) -> np.ndarray:
     """Rotation for a spherical joint value (rx, ry, rz) in degrees: intrinsic X, then Y, then Z
     (``Rx @ Ry @ Rz``, build123d's ``Intrinsic.XYZ``, as its ``BallJoint`` uses)."""
     rx, ry, rz = (float(v) for v in value)
-    return rot_x(rx) @ rot_y(ry) @ rot_z(rz)
+    m: np.ndarray = rot_x(rx) @ rot_y(ry) @ rot_z(rz)
+    return m
 
 
 def spherical_tilt_deg(m: np.ndarray) -> float:
@@ -70,7 +71,8 @@ def spherical_tilt_deg(m: np.ndarray) -> float:
 
 def _slide_turn(value: Sequence[float]) -> np.ndarray:
     z, ang = (float(v) for v in value)
-    return trans(z=z) @ rot_z(ang)
+    m: np.ndarray = trans(z=z) @ rot_z(ang)
+    return m
 
 
 #: ``Delta`` of each motion at a joint value (deg, mm, (rx, ry, rz) deg, or (z mm, angle deg)).

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -53,7 +54,7 @@ def delta(mtype: str, value: float | Sequence[float] | None = None) -> np.ndarra
     return TYPES[mtype].delta(value)
 
 
-def home_value(mtype: str, options: dict) -> float | tuple[float, ...] | None:
+def home_value(mtype: str, options: dict[str, Any]) -> float | tuple[float, ...] | None:
     """The joint value at which a kinematic mate places its child (None for static mates)."""
     return TYPES[mtype].home_value(options)
 
@@ -62,7 +63,8 @@ def solve(parent_world: np.ndarray, f_parent: np.ndarray, f_child: np.ndarray,
           d: np.ndarray | None = None) -> np.ndarray:
     """The child's world transform so that its frame lands on the parent's (times ``d``)."""
     d = np.eye(4) if d is None else d
-    return parent_world @ f_parent @ d @ rigid_inverse(f_child)
+    world: np.ndarray = parent_world @ f_parent @ d @ rigid_inverse(f_child)
+    return world
 
 
 def residual(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:

@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, ClassVar, Literal
+from typing import TYPE_CHECKING, Any, ClassVar, Literal, cast
 
 from ..errors import MateError
 from .fits import FIT_CLASSES, Fit, FitClass, iso273, iso286
@@ -73,7 +73,7 @@ class Dof:
     def count(self) -> int:
         return len(self.translation) + len(self.rotation)
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         return {"count": self.count, "translation": list(self.translation),
                 "rotation": list(self.rotation)}
 
@@ -152,7 +152,7 @@ class _AxialType(MateType):
                     limits: tuple[float, float] | None = None, cone: float | None = None,
                     angle_limits: tuple[float, float] | None = None) -> None:
         from .motion import check_linear
-        check_linear(f"{mate} ({self.name}) position", float(value), limits,  # type: ignore[arg-type]
+        check_linear(f"{mate} ({self.name}) position", float(value), limits,  # type: ignore[arg-type]  # one DOF: a scalar
                      self.axial_kind.mate_unit)
 
 
@@ -197,7 +197,7 @@ class SphericalType(MateType):
         if cone is None:
             return
         from .motion import check_tilt
-        check_tilt(f"{mate} ({self.name}) tilt", value, cone)  # type: ignore[arg-type]
+        check_tilt(f"{mate} ({self.name}) tilt", value, cone)  # type: ignore[arg-type]  # a ball's value: (rx, ry, rz)
 
 
 @dataclass(frozen=True)
@@ -217,7 +217,7 @@ class CylindricalType(MateType):
                     limits: tuple[float, float] | None = None, cone: float | None = None,
                     angle_limits: tuple[float, float] | None = None) -> None:
         from .motion import check_linear
-        z, ang = (float(v) for v in value)  # type: ignore[union-attr]
+        z, ang = (float(v) for v in value)  # type: ignore[union-attr]  # cylindrical: (z, angle), never a scalar
         check_linear(f"{mate} ({self.name}) position", z, limits, PRISMATIC.mate_unit)
         check_linear(f"{mate} ({self.name}) angle", ang, angle_limits, REVOLUTE.mate_unit)
 
@@ -399,8 +399,9 @@ def _check_limits(mate: str, mtype: MateType, value: Any, key: str = "limits"
     except (TypeError, ValueError):
         raise MateError(mate, f"{key} must be (lo, hi), got {value!r}") from None
     opt = mtype.options[key]
+    low, high = cast(float, opt.low), cast(float, opt.high)  # every limits option has a range
     if not (lo < hi):
         raise MateError(mate, f"{key} ({lo:g}, {hi:g}) must have lo < hi")
-    if lo < opt.low or hi > opt.high:
-        raise MateError(mate, f"{key} ({lo:g}, {hi:g}) are outside [{opt.low:g}, {opt.high:g}]")
+    if lo < low or hi > high:
+        raise MateError(mate, f"{key} ({lo:g}, {hi:g}) are outside [{low:g}, {high:g}]")
     return (lo, hi)
