@@ -59,8 +59,8 @@ def figures_from_json(d: Any) -> Figures | None:
                   and all(isinstance(x, (int, float)) for x in d[k]) for k in ("lo", "hi")))
     if not ok:
         return None
-    return Figures(d["solids"], d["faces"], tuple(float(x) for x in d["lo"]),  # type: ignore[arg-type]
-                   tuple(float(x) for x in d["hi"]), d["triangles"])  # type: ignore[arg-type]
+    return Figures(d["solids"], d["faces"], tuple(float(x) for x in d["lo"]),  # type: ignore[arg-type]  # 3 checked above
+                   tuple(float(x) for x in d["hi"]), d["triangles"])  # type: ignore[arg-type]  # 3 checked above
 
 
 def _count(shape: Any, kind: Any) -> int:
@@ -96,12 +96,12 @@ def _face_triangles(face: Any) -> float:
     umin, umax, vmin, vmax = BRepTools.UVBounds_s(f)
     if kind == S.GeomAbs_Cylinder:
         r = surf.Cylinder().Radius()
-        return CURVED_FACTOR * 2.0 * abs(umax - umin) * r / _chord(r) + 2.0
+        return float(CURVED_FACTOR * 2.0 * abs(umax - umin) * r / _chord(r) + 2.0)
     if kind == S.GeomAbs_Cone:
         cone = surf.Cone()
         v = max(abs(vmin), abs(vmax))
         r = abs(cone.RefRadius()) + v * abs(math.sin(cone.SemiAngle()))
-        return CURVED_FACTOR * 2.0 * abs(umax - umin) * r / _chord(r) + 2.0
+        return float(CURVED_FACTOR * 2.0 * abs(umax - umin) * r / _chord(r) + 2.0)
     props = GProp_GProps()
     BRepGProp.SurfaceProperties_s(f, props)
     area = abs(props.Mass())
@@ -112,7 +112,7 @@ def _face_triangles(face: Any) -> float:
     else:  # free-form: the face's own size stands in for its curvature radius
         (x0, y0, z0), (x1, y1, z1) = _bbox(f)
         r = max(min(x1 - x0, y1 - y0, z1 - z0), max(x1 - x0, y1 - y0, z1 - z0) / 4.0, 1e-6)
-    return CURVED_FACTOR * 2.0 * area / _chord(r) ** 2 + 2.0
+    return float(CURVED_FACTOR * 2.0 * area / _chord(r) ** 2 + 2.0)
 
 
 def _bbox(shape: Any) -> tuple[tuple[float, float, float], tuple[float, float, float]]:

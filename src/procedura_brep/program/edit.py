@@ -11,7 +11,7 @@ import re
 from collections.abc import Mapping
 
 from ..errors import EditError, ProgramFormatError
-from .sections import parse_sections
+from .sections import Sections, parse_sections
 
 VALUE_RE = re.compile(r"[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?")
 #: A param whose name ends in a size word (diameter, radius, width, height, thickness, length,
@@ -91,7 +91,7 @@ def set_params(source: str, values: Mapping[str, float | int | bool]) -> str:
     return "".join(lines)
 
 
-def _current(sec: "object", name: str) -> float:
+def _current(sec: Sections, name: str) -> float:
     """The param's value when its expression is a plain number literal, else +inf (unknown)."""
-    expr = sec.params[name].expr.strip()  # type: ignore[attr-defined]
+    expr = sec.params[name].expr.strip()
     return float(expr) if VALUE_RE.fullmatch(expr) else math.inf

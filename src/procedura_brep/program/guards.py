@@ -47,8 +47,8 @@ def harden_kernel() -> None:
             raise ValueError(f"font {font!r:.60} must be a font family name, not a path")
         return original(font, None, *args, **kwargs)
 
-    resolve_font.procedura_guard = True  # type: ignore[attr-defined]
-    Compound.resolve_font = staticmethod(resolve_font)  # type: ignore[method-assign]
+    resolve_font.procedura_guard = True  # type: ignore[attr-defined]  # a marker set on the function
+    Compound.resolve_font = staticmethod(resolve_font)  # type: ignore[method-assign]  # the guard wraps build123d's
     Text("x", 5)
 
 

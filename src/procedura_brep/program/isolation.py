@@ -159,7 +159,7 @@ def _filter(arch: Arch) -> bytes:
 
 
 def _no_new_privs(libc: ctypes.CDLL) -> bool:
-    return libc.prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) == 0
+    return bool(libc.prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) == 0)
 
 
 def _seccomp(libc: ctypes.CDLL) -> bool:
@@ -173,12 +173,12 @@ def _seccomp(libc: ctypes.CDLL) -> bool:
         _fields_ = [("len", ctypes.c_ushort), ("filter", ctypes.c_void_p)]
 
     prog = SockFprog(len(code) // 8, ctypes.cast(buf, ctypes.c_void_p))
-    return libc.prctl(PR_SET_SECCOMP, SECCOMP_MODE_FILTER, ctypes.byref(prog), 0, 0) == 0
+    return bool(libc.prctl(PR_SET_SECCOMP, SECCOMP_MODE_FILTER, ctypes.byref(prog), 0, 0) == 0)
 
 
 def _netns(libc: ctypes.CDLL) -> bool:
     flags = CLONE_NEWNET if os.geteuid() == 0 else CLONE_NEWUSER | CLONE_NEWNET
-    return libc.unshare(flags) == 0
+    return bool(libc.unshare(flags) == 0)
 
 
 def landlock_abi(libc: ctypes.CDLL | None = None) -> int:
@@ -254,7 +254,7 @@ def _landlock(libc: ctypes.CDLL, *, write: Iterable[str], read: Iterable[str],
             add_path(p, READ)
         for fd in read_fds:
             add(fd, READ)
-        return libc.syscall(SYS_LANDLOCK[2], ctypes.c_int(ruleset), ctypes.c_uint32(0)) == 0
+        return bool(libc.syscall(SYS_LANDLOCK[2], ctypes.c_int(ruleset), ctypes.c_uint32(0)) == 0)
     finally:
         os.close(ruleset)
 

@@ -57,7 +57,7 @@ def _mate_calls(source: str) -> list[tuple[ast.stmt, ast.Call]]:
         tree = ast.parse(source)
     except (ProgramFormatError, SyntaxError) as exc:
         raise EditError(f"cannot edit: {exc}") from None
-    out = []
+    out: list[tuple[ast.stmt, ast.Call]] = []
     for stmt in tree.body:
         if sec.section_of(stmt.lineno) != "assembly":
             continue
@@ -107,7 +107,7 @@ def set_mate(source: str, name: str, *, type: str | None = None, fit: str | None
             kws[key] = _literal(value)
     text = "mate(" + ", ".join(args + [f"{k}={v}" for k, v in kws.items()]) + ")"
     lines = source.splitlines(keepends=True)
-    first, last = stmt.lineno - 1, stmt.end_lineno - 1  # type: ignore[operator]
+    first, last = stmt.lineno - 1, stmt.end_lineno - 1  # type: ignore[operator]  # a parsed stmt has end_lineno
     indent = lines[first][: len(lines[first]) - len(lines[first].lstrip())]
     tail = lines[last][stmt.end_col_offset:]  # a trailing comment stays
     lines[first:last + 1] = [indent + text + (tail if tail.strip() else "\n")]

@@ -12,14 +12,19 @@ from __future__ import annotations
 import base64
 import hashlib
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..findings import Finding, cap_text, failed  # noqa: F401 - Finding, cap_text re-exported
+from ..findings import Finding as Finding  # re-exported: the model's findings
+from ..findings import cap_text as cap_text  # re-exported
+from ..findings import failed
 from ..materials import MATERIALS, Material, default_library, get, library_to_json
 from ..mates.kinds import Motion
 from ..mates.vocabulary import TYPES
+
+if TYPE_CHECKING:
+    from ..kernel import Mesh, Shape
 
 _MESHES: dict[str, Any] = {}
 _MESH_CACHE_SIZE = 512
@@ -82,9 +87,10 @@ class CompiledPart:
         """sha256 of the local BRep plus placement: changes exactly when the geometry does."""
         h = self._brep_hash()
         h.update(np.round(self.placement, 9).tobytes())
-        return h.hexdigest()
+        hexdigest: str = h.hexdigest()
+        return hexdigest
 
-    def local_shape(self):
+    def local_shape(self) -> Shape:
         """The part's TopoDS_Shape in part-local coordinates (cached, also across models)."""
         if self._shape is None:
             key = f"{self.name}:{self._brep_hash().hexdigest()}"
@@ -98,12 +104,12 @@ class CompiledPart:
             self._shape = shape
         return self._shape
 
-    def shape(self):
+    def shape(self) -> Shape:
         """The part's TopoDS_Shape placed in the world."""
         from .. import kernel
         return kernel.located(self.local_shape(), self.placement)
 
-    def mesh(self):
+    def mesh(self) -> Mesh:
         """The part's world mesh (mm) with the tessellation settings of ``config.TOL`` (linear
         deflection scaled with the part's size, see :func:`procedura_brep.kernel.tessellate`).
 
@@ -111,7 +117,7 @@ class CompiledPart:
         tessellated once per process.
         """
         key = self.digest
-        hit = _MESHES.get(key)
+        hit: Mesh | None = _MESHES.get(key)
         if hit is None:
             from .. import kernel
             hit = kernel.tessellate(self.shape(), name=self.name)
@@ -121,7 +127,8 @@ class CompiledPart:
         return hit
 
     def world_frame(self, frame: str) -> np.ndarray:
-        return self.placement @ self.frames[frame]
+        world: np.ndarray = self.placement @ self.frames[frame]
+        return world
 
     @property
     def owner(self) -> str:
@@ -199,7 +206,8 @@ class CompiledModel:
 
 
 def _m(a: np.ndarray) -> list[list[float]]:
-    return np.asarray(a, dtype=float).tolist()
+    rows: list[list[float]] = np.asarray(a, dtype=float).tolist()
+    return rows
 
 
 def to_json(model: CompiledModel, *, by_key: bool = False) -> dict[str, Any]:

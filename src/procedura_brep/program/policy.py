@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import ast
 from collections.abc import Callable
-from typing import Any
+from typing import Any, cast
 
 from ..errors import ProgramFormatError
 
@@ -105,17 +105,22 @@ def _bound_names(nodes: list[ast.AST]) -> set[str]:
         kind = _of(_BINDS, type(node), _BIND_MEMO)
         if kind is None:
             continue
+        # ``kind`` says the node's class (_BINDS); cast, not isinstance: this loop sees every node
         if kind == "name":
-            if isinstance(node.ctx, (ast.Store, ast.Del)):  # type: ignore[attr-defined]
-                out.add(node.id)  # type: ignore[attr-defined]
+            name = cast(ast.Name, node)
+            if isinstance(name.ctx, (ast.Store, ast.Del)):
+                out.add(name.id)
         elif kind == "arg":
-            out.add(node.arg)  # type: ignore[attr-defined]
+            out.add(cast(ast.arg, node).arg)
         elif kind == "def":
-            out.add(node.name)  # type: ignore[attr-defined]
+            out.add(cast("ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef", node).name)
         elif kind == "alias":
-            out.add(node.asname or node.name.split(".")[0])  # type: ignore[attr-defined]
-        elif node.name:  # an except handler's ``as`` name
-            out.add(node.name)  # type: ignore[attr-defined]
+            alias = cast(ast.alias, node)
+            out.add(alias.asname or alias.name.split(".")[0])
+        else:
+            handler = cast(ast.ExceptHandler, node)
+            if handler.name:  # an except handler's ``as`` name
+                out.add(handler.name)
     return out
 
 
@@ -148,7 +153,9 @@ def _deny(node: ast.AST, why: str) -> None:
 
 
 def _reserved(name: str | None) -> bool:
-    return bool(name) and (name.startswith("_") or name in FORBIDDEN_NAMES)  # type: ignore[union-attr]
+    if not name:
+        return False
+    return name.startswith("_") or name in FORBIDDEN_NAMES
 
 
 def _import(node: ast.Import) -> None:

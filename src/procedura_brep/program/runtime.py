@@ -19,7 +19,8 @@ import math
 import sys
 import time
 import traceback
-from typing import Any
+from collections.abc import Set as AbstractSet
+from typing import Any, cast
 
 import numpy as np
 
@@ -149,7 +150,8 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     glb = restricted_globals()
     tables = guards.baseline()
     try:
-        contextvars.Context().run(_exec_module, b, sections.tree, glb)
+        # parse_sections always keeps the tree it parsed
+        contextvars.Context().run(_exec_module, b, cast(ast.Module, sections.tree), glb)
     finally:
         registry.pop()
     params = {k: glb.get(k) for k in sections.params}
@@ -271,7 +273,7 @@ def _check_model_caps(b: _Build, reg: registry.Registry) -> None:
 
 
 def _load_cached(b: _Build, keys: dict[str, str], cache_dir: str | int | None, *,
-                 painted: set[str] = frozenset()) -> set[str]:  # type: ignore[assignment]
+                 painted: AbstractSet[str] = frozenset()) -> set[str]:
     """Find the parts whose key is in the cache; return their names.
 
     A hit keeps its stored bytes (serialised unchanged: digests stay stable across builds).
@@ -309,7 +311,7 @@ def _wrap(shape: Any) -> Any:
 
 
 def _eval_parts(b: _Build, reg: registry.Registry, cached: set[str], params: dict[str, Any],
-                glb: dict[str, Any], skip: set[str] = frozenset()) -> None:  # type: ignore[assignment]
+                glb: dict[str, Any], skip: AbstractSet[str] = frozenset()) -> None:
     for decl in reg.parts.values():
         if decl.name in skip:
             continue
@@ -379,7 +381,7 @@ def _resolve_mates(b: _Build, reg: registry.Registry, params: dict[str, Any]) ->
             if isinstance(d, bool) or not isinstance(d, (int, float)) or not d > 0 or not math.isfinite(d):
                 raise MateError(decl.name, f"nominal {decl.nominal} = {d!r} must be a positive number (mm)")
             try:
-                fit = mtype.resolve_fit(float(d), fit_name)  # type: ignore[arg-type]
+                fit = mtype.resolve_fit(float(d), fit_name)  # type: ignore[arg-type]  # a bad name: ValueError below
             except ValueError as exc:
                 raise MateError(decl.name, str(exc)) from None
             fc = _frame(b, reg, decl.name, decl.child, decl.child_frame)

@@ -437,7 +437,9 @@ def kill_default_worker() -> None:
     """
     import signal
     w = _DEFAULT
-    proc = w._proc if w is not None else None
+    if w is None:
+        return
+    proc = w._proc
     if proc is None or proc.poll() is not None:
         return
     try:

@@ -21,6 +21,7 @@ from __future__ import annotations
 import ast
 import re
 from dataclasses import dataclass, field
+from typing import TypeGuard, cast
 
 from ..errors import ProgramFormatError
 from .sections import SECTION_NAMES, Sections, marker, parse_sections
@@ -59,7 +60,8 @@ class PartReply:
     mates: str
 
     def block(self, name: str) -> str:
-        return getattr(self, name)
+        text: str = getattr(self, name)
+        return text
 
 
 @dataclass
@@ -212,7 +214,7 @@ def _owner(section: str, stmt: ast.stmt) -> str | None:
     return first.split(".")[0] if section == "assembly" else first
 
 
-def _is_part_def(stmt: ast.stmt) -> bool:
+def _is_part_def(stmt: ast.stmt) -> TypeGuard[ast.FunctionDef]:
     return isinstance(stmt, ast.FunctionDef) and any(
         (isinstance(d, ast.Call) and isinstance(d.func, ast.Name) and d.func.id == "part")
         or (isinstance(d, ast.Name) and d.id == "part") for d in stmt.decorator_list)
@@ -239,14 +241,14 @@ class _Program:
         for stmt in tree.body:
             where = sec.section_of(stmt.lineno)
             if where == "params" and isinstance(stmt, ast.Assign):
-                params[stmt.targets[0].id] = stmt  # type: ignore[union-attr]
+                params[stmt.targets[0].id] = stmt  # type: ignore[attr-defined]  # one Name: parse_sections checks
             elif where == "helpers" and isinstance(stmt, (ast.FunctionDef, ast.Assign)):
                 names = [stmt.name] if isinstance(stmt, ast.FunctionDef) else [
                     t.id for t in stmt.targets if isinstance(t, ast.Name)]
                 for n in names:
                     helpers[n] = stmt
             elif where == "parts" and _is_part_def(stmt):
-                parts.append(stmt.name)  # type: ignore[attr-defined]
+                parts.append(stmt.name)
         return cls(source.split("\n"), tree, dict(sec.starts), params, helpers, parts)
 
     def section_end(self, section: str) -> int:
@@ -287,9 +289,9 @@ def _rename_in(text: str, tree: ast.Module, renames: dict[str, str]) -> str:
             spots.append((node.lineno, node.col_offset, len(node.id), renames[node.id]))
         elif isinstance(node, ast.FunctionDef) and node.name in renames:
             line = lines[node.lineno - 1]
-            col = re.search(rf"\bdef\s+({re.escape(node.name)})\b", line)
-            if col:
-                spots.append((node.lineno, col.start(1), len(node.name), renames[node.name]))
+            found = re.search(rf"\bdef\s+({re.escape(node.name)})\b", line)
+            if found:
+                spots.append((node.lineno, found.start(1), len(node.name), renames[node.name]))
     for lineno, col, length, new in sorted(spots, reverse=True):
         s = lines[lineno - 1]
         lines[lineno - 1] = s[:col] + new + s[col + length:]
@@ -335,7 +337,8 @@ def replace_part(program: str, reply: PartReply | str) -> SpliceResult:
     read: set[str] = set()
     for stmt in ast.parse(kept).body:
         if stmt.lineno in param_lines:
-            read |= {n.id for n in ast.walk(stmt.value) if isinstance(n, ast.Name)}  # type: ignore[attr-defined]
+            value = cast(ast.Assign, stmt).value  # a param line: parse_sections checks it is one Assign
+            read |= {n.id for n in ast.walk(value) if isinstance(n, ast.Name)}
             continue
         read |= {n.id for n in ast.walk(stmt) if isinstance(n, ast.Name)}
         read |= {n.value for n in ast.walk(stmt) if isinstance(n, ast.Constant) and isinstance(n.value, str)}
@@ -419,7 +422,7 @@ def splice(program: str, reply: PartReply | str, *, after: str | None = None,
         if isinstance(stmt, ast.FunctionDef):
             hname = stmt.name
         elif isinstance(stmt, ast.Assign) and all(isinstance(t, ast.Name) for t in stmt.targets):
-            hname = stmt.targets[0].id  # type: ignore[attr-defined]
+            hname = cast(ast.Name, stmt.targets[0]).id  # all Names: checked above
         else:
             raise SpliceError("holds only function definitions and simple constants",
                               block="helpers", line=stmt.lineno)
@@ -451,14 +454,14 @@ def splice(program: str, reply: PartReply | str, *, after: str | None = None,
         src = blocks.block(b)
         keep = {"params": keep_params, "helpers": keep_helpers}.get(b)
         text = _rename_in(src, trees[b], renames)
-        rows = text.split("\n") if text else []
+        block_lines = text.split("\n") if text else []
         if keep is None:
-            texts[b] = [(t, i) for i, t in enumerate(rows, start=1)]
+            texts[b] = [(t, i) for i, t in enumerate(block_lines, start=1)]
             continue
         chosen: list[tuple[str, int]] = []
         for stmt in keep:
             first = min([stmt.lineno] + [d.lineno for d in getattr(stmt, "decorator_list", [])])
-            chosen += [(rows[i - 1], i) for i in range(first, (stmt.end_lineno or stmt.lineno) + 1)]
+            chosen += [(block_lines[i - 1], i) for i in range(first, (stmt.end_lineno or stmt.lineno) + 1)]
             if b == "helpers":
                 chosen += [("", 0), ("", 0)]
         texts[b] = chosen

@@ -154,7 +154,7 @@ def finding_from_json(f: Any, where: str) -> Finding:
                    part=None if f.get("part") is None else _name(f["part"], f"{where}.part"),
                    mate=None if f.get("mate") is None else _name(f["mate"], f"{where}.mate"),
                    line=None if f.get("line") is None else _int(f["line"], f"{where}.line"),
-                   severity=sev, **opt_num)
+                   severity=sev, value=opt_num["value"], limit=opt_num["limit"])
 
 
 def _library(rows: Any) -> dict[str, Material]:

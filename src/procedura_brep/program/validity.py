@@ -16,6 +16,8 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
+from types import FrameType
 from typing import Any
 
 #: BRepCheck calls one diagnosis may make (each costs about a millisecond on a simple shape).
@@ -49,7 +51,7 @@ class InvalidOrigin:
 
 def _program_line() -> int | None:
     """The innermost line of the program (the sandbox compiles it as ``<program>``) on the stack."""
-    f = sys._getframe(2)
+    f: FrameType | None = sys._getframe(2)
     while f is not None:
         if f.f_code.co_filename == "<program>":
             return f.f_lineno
@@ -94,12 +96,12 @@ def invalid_origin(run: Callable[[], Any], glb: dict[str, Any]) -> InvalidOrigin
                 if orig is None:
                     continue
                 setattr(owner, attr, traced(orig, label))
-                undo.append(lambda o=owner, a=attr, f=orig: setattr(o, a, f))
+                undo.append(partial(setattr, owner, attr, orig))
         for name in _FUNCTIONS:
             if callable(glb.get(name)):
                 orig_fn = glb[name]
                 glb[name] = traced(orig_fn, name)
-                undo.append(lambda n=name, f=orig_fn: glb.__setitem__(n, f))
+                undo.append(partial(glb.__setitem__, name, orig_fn))
         try:
             run()
         except Exception:  # noqa: BLE001 - the first run already reported what it raised

@@ -325,8 +325,8 @@ def _stub_unused_imports() -> None:
             raise ImportError("scikit-learn is not loaded in the compile worker (STL import is "
                               "not available to programs)")
 
-    cluster.DBSCAN = DBSCAN  # type: ignore[attr-defined]
-    sk.cluster = cluster  # type: ignore[attr-defined]
+    cluster.DBSCAN = DBSCAN  # type: ignore[attr-defined]  # a stand-in module made here
+    sk.cluster = cluster  # type: ignore[attr-defined]  # a stand-in module made here
     sys.modules["sklearn"], sys.modules["sklearn.cluster"] = sk, cluster
 
 
