@@ -33,8 +33,8 @@ def test_a_revise_without_parts_may_edit_both_parts_of_a_pair_issue():
     model = SimpleNamespace(parts=[SimpleNamespace(name=n) for n in sorted(PARTS)])
     host = SimpleNamespace(
         tools=SimpleNamespace(compile_model=lambda source, name: model), name="m", prompt="a telescope",
-        _refs=lambda: [],
-        _call=lambda role, system, msgs, max_tokens=0: "SUMMARY: s\nISSUES:\n- [HIGH] tube+ring: gap")
+        refs=lambda: [],
+        call=lambda role, system, msgs, max_tokens=0: "SUMMARY: s\nISSUES:\n- [HIGH] tube+ring: gap")
     bench = RefineBench(host, allowed=set())
     bench.critique("program", [], [])
     assert bench.allowed == {"tube", "ring"}

@@ -64,12 +64,12 @@ class _Host:
         self.replies = [json.dumps(r) for r in replies]
         self.requests: list[str] = []
 
-    def _call(self, role, system, messages, *, max_tokens=8000):
+    def call(self, role, system, messages, *, max_tokens=8000):
         assert role == "battery_fixer"
         self.requests.append("\n".join(m.text for m in messages))
         return self.replies.pop(0)
 
-    def _refs(self):
+    def refs(self):
         return []
 
     def progress(self, stage, text):

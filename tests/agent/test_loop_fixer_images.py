@@ -24,7 +24,7 @@ class _Bench(RefineBench):
         return self.last_images
 
     def critique(self, source, views, trail):
-        self.host._call("critic", "", [], max_tokens=10)
+        self.host.call("critic", "", [], max_tokens=10)
         return parse_critique("SUMMARY: fine\nISSUES: none")
 
     def compile(self, source):
@@ -38,13 +38,13 @@ class _Host:
         self.requests: list[list] = []
         self.reference = Image(PNG + b"reference", "reference")
 
-    def _call(self, role, system, messages, *, max_tokens=8000):
+    def call(self, role, system, messages, *, max_tokens=8000):
         if role == "critic":
             return ""
         self.requests.append(list(messages))
         return self.replies.pop(0)
 
-    def _refs(self):
+    def refs(self):
         return [self.reference]
 
     def progress(self, stage, text):

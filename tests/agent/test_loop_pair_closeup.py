@@ -57,7 +57,7 @@ def test_a_pair_finding_comes_to_the_fixer_and_the_critic_with_its_close_up(tmp_
         return next(replies)
 
     host = SimpleNamespace(tools=Tools(), name="blocks", prompt="two blocks", out_dir=Path(tmp_path),
-                           _call=call, _refs=lambda: [], progress=lambda stage, text: None)
+                           call=call, refs=lambda: [], progress=lambda stage, text: None)
     refine(host, PROGRAM, intro="Refine it.", max_edits=2, max_actions=6)
     compiled = sent[1][1][-1]  # the fixer's second call: the compile observation last
     assert "compiled with findings" in compiled.text and "Close-up of block and base" in compiled.text

@@ -25,8 +25,7 @@ from __future__ import annotations
 
 import json
 import logging
-from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 from ..articulation import Articulation, ArticulationError, articulate, mates_evidence
 from ..errors import EditError, ProceduraError
@@ -46,6 +45,7 @@ from .articulation_plan import (
     promotion_refusal,
 )
 from .prompts import template
+from .stages import StageHost
 
 log = logging.getLogger(__name__)
 
@@ -57,22 +57,6 @@ FIXER_ATTEMPTS = 2
 MEASURED_CHARS = 3000
 #: Battery-fixer rounds (fix, rebuild, rerun the battery) at most.
 BATTERY_ROUNDS = 3
-
-
-class Host(Protocol):
-    """What the stage needs from the staged run."""
-
-    tools: Any
-    options: Any
-    out_dir: Path
-    name: str
-    prompt: str
-
-    def _call(self, role: str, system: str, messages: list[Message], *, max_tokens: int = ...) -> str: ...
-
-    def _refs(self) -> list[Image]: ...
-
-    def progress(self, stage: str, text: str) -> None: ...
 
 
 class FixerError(ProceduraError):
@@ -88,7 +72,7 @@ def _errors(model: CompiledModel, source: str) -> set[tuple[str, str | None, str
 class ArticulationStage:
     """One run of the stage over ``source``; :meth:`run` returns the new program and the report."""
 
-    def __init__(self, host: Host, *, history_from: int = 0) -> None:
+    def __init__(self, host: StageHost, *, history_from: int = 0) -> None:
         self.host = host
         self.history_from = history_from
         self.report: dict[str, Any] = {"edits": [], "findings": []}
@@ -134,10 +118,10 @@ class ArticulationStage:
         system = template("articulation_system")
         user = (template("articulation_user").replace("{prompt}", self.host.prompt)
                 .replace("{evidence}", evidence_text(model, evidence, art)).replace("{program}", source))
-        msgs = [Message.user(user, *self.host._refs())]
+        msgs = [Message.user(user, *self.host.refs())]
         problems: list[list[str]] = []
         for attempt in range(1, self.host.options.plan_attempts + 1):
-            text = self.host._call("articulation", system, msgs, max_tokens=4000)
+            text = self.host.call("articulation", system, msgs, max_tokens=4000)
             try:
                 plan = parse_articulation(text, model)
             except ArticulationPlanError as exc:
@@ -288,7 +272,7 @@ class ArticulationStage:
                                "frames": [f"history/articulation/{i.name}.png" for i in images]}
         action = None
         for _ in range(FIXER_ATTEMPTS):
-            text = self.host._call("battery_fixer", template("battery_fixer_system"), msgs, max_tokens=8000)
+            text = self.host.call("battery_fixer", template("battery_fixer_system"), msgs, max_tokens=8000)
             try:
                 action = parse_fixer(text)
                 break

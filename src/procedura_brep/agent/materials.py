@@ -25,7 +25,7 @@ A stage that cannot use a reply keeps the program as it was and says why in the 
 from __future__ import annotations
 
 import io
-from typing import Any, Protocol
+from typing import Any
 
 from ..config import MATERIAL
 from ..errors import ProceduraError
@@ -45,7 +45,8 @@ from .paint import (
     parse_assignment,
 )
 from .prompts import template
-from .refine import Host, findings_text
+from .refine import findings_text
+from .stages import StageHost
 from .subparts import SubpartEdit, parse_subparts, splice_paint
 
 #: Views the materials calls see (parts colours for the library, PBR for the critic).
@@ -53,26 +54,14 @@ MATERIAL_VIEWS: tuple[str, ...] = ("iso_se", "iso_nw")
 STAGE = "materials"
 
 
-class _Run(Protocol):
-    """What :func:`materials_stage` needs of the staged run."""
-
-    state: Any
-    options: Any
-    _model: CompiledModel | None
-
-    def _advance(self, stage: str) -> None: ...
-
-
-def materials_stage(run: _Run, *, next_stage: str = "finish") -> None:
+def materials_stage(run: StageHost) -> str:
     """Run the stage on ``run.state.source`` (when ``run.options.materials``), record its report
-    in ``run.state.materials`` and advance the run to ``next_stage``."""
+    in ``run.state.materials`` and return the program (changed or not)."""
     st = run.state
     if run.options.materials and st.source:
         source, st.materials = run_materials(run, st.source)
-        if source != st.source:
-            st.source = source
-            run._model = None
-    run._advance(next_stage)
+        return source
+    return st.source
 
 
 def builtins_text() -> str:
@@ -115,7 +104,7 @@ def triangles(model: CompiledModel, part: str) -> int:
 class MaterialsBench:
     """The stage's deterministic work over one host run: compile, splice, gate, history."""
 
-    def __init__(self, host: Host, source: str) -> None:
+    def __init__(self, host: StageHost, source: str) -> None:
         self.host = host
         self.source = source
         self.model = host.tools.compile_model(source, host.name)
@@ -131,7 +120,7 @@ class MaterialsBench:
         returns (parsed or None, attempts, the parse errors)."""
         errors: list[str] = []
         for attempt in range(1, MATERIAL.reply_attempts + 1):
-            text = self.host._call(role, system, messages, max_tokens=8000)
+            text = self.host.call(role, system, messages, max_tokens=8000)
             try:
                 return parse(text), attempt, errors
             except (PaintError, SpliceError) as exc:
@@ -172,7 +161,7 @@ class MaterialsBench:
         return {p.name: p.material for p in self.model.parts}
 
 
-def run_materials(host: Host, source: str) -> tuple[str, dict[str, Any]]:
+def run_materials(host: StageHost, source: str) -> tuple[str, dict[str, Any]]:
     """The three calls over ``source``; returns the program and the stage's report."""
     try:
         bench = MaterialsBench(host, source)
@@ -202,7 +191,7 @@ def _library_step(bench: MaterialsBench, size: int) -> None:
     views, colours = host.tools.render(bench.model, list(MATERIAL_VIEWS))
     msgs = [Message.user(f"Object: {host.prompt}\n\nParts (name: description; current material):\n"
                          f"{_parts_text(bench.model)}\n\nColour legend of the views: {colours}",
-                         *host._refs(), *views)]
+                         *host.refs(), *views)]
     parsed, attempts, errors = bench.ask("materials", system, msgs,
                                          lambda t: parse_assignment(t, parts=bench.parts, complete=True))
     step: dict[str, Any] = {"step": "library", "attempts": attempts, "parse_errors": errors}
@@ -230,7 +219,7 @@ def _critic_step(bench: MaterialsBench, size: int) -> None:
         return
     msgs = [Message.user(f"Object: {host.prompt}\n\nLegend (part: material and its values):\n"
                          f"{legend(bench.model)}\n\nThe PBR views of the build follow.",
-                         *host._refs(), *views)]
+                         *host.refs(), *views)]
     current = bench.entries
     parsed: Assignment | None
     parsed, attempts, errors = bench.ask(
@@ -272,7 +261,7 @@ def _subparts_step(bench: MaterialsBench, size: int) -> None:
     msgs = [Message.user(f"Object: {host.prompt}\n\nLegend (part: material and its values):\n"
                          f"{legend(bench.model)}\n\nThe run's library (the materials a PAINT may "
                          f"use):\n{library_text(bench.model)}\n\nThe program:\n```python\n"
-                         f"{bench.source}```", *host._refs(), *views)]
+                         f"{bench.source}```", *host.refs(), *views)]
     parsed, attempts, errors = bench.ask(
         "subparts", system, msgs, lambda t: parse_subparts(t, parts=bench.parts, library=library))
     step: dict[str, Any] = {"step": "subparts", "attempts": attempts, "parse_errors": errors,

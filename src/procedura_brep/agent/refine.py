@@ -9,8 +9,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 from ..errors import ProceduraError
 from ..findings import blocking
@@ -29,26 +28,11 @@ from .actions import (
 from .context import captions
 from .critic import Critique, CritiqueError, parse_critique
 from .prompts import template
-from .tools import Tools
+from .stages import StageHost
 
 log = logging.getLogger(__name__)
 #: The views of the close-up a pair finding comes with (the build retries' too).
 PAIR_VIEWS: tuple[str, ...] = ("iso_se", "iso_nw")
-
-
-class Host(Protocol):
-    """What the loop needs from the run that hosts it."""
-
-    tools: Tools
-    name: str
-    prompt: str
-    out_dir: Path
-
-    def _call(self, role: str, system: str, messages: list[Message], *, max_tokens: int = ...) -> str: ...
-
-    def _refs(self) -> list[Image]: ...
-
-    def progress(self, stage: str, text: str) -> None: ...
 
 
 def findings_text(findings: list[Finding], limit: int = 12,
@@ -62,7 +46,7 @@ def findings_text(findings: list[Finding], limit: int = 12,
     return "\n".join(rows) or "- (no details)"
 
 
-def refine(host: Host, source: str, *, intro: str, max_edits: int, max_actions: int,
+def refine(host: StageHost, source: str, *, intro: str, max_edits: int, max_actions: int,
            history_from: int = 0, critic_system: str | None = None, task: str | None = None,
            allowed: set[str] | None = None, stage: str = "refine",
            roles: tuple[str, str] = ("fixer", "critic"),
@@ -86,10 +70,10 @@ def refine(host: Host, source: str, *, intro: str, max_edits: int, max_actions: 
                                         critic_role=roles[1])
     session = RefineSession(bench, source, max_edits=max_edits, max_actions=max_actions)
     system = (template("fixer_system").replace("{views}", ", ".join(VIEWS)).replace("{edits}", str(max_edits)))
-    msgs: list[Message] = [Message.user(intro, *host._refs())]
+    msgs: list[Message] = [Message.user(intro, *host.refs())]
     shown: list[int] = []  # the messages that carry rendered views (only the newest keeps them)
     while not session.done:
-        text = host._call(roles[0], system, msgs, max_tokens=8000)
+        text = host.call(roles[0], system, msgs, max_tokens=8000)
         msgs.append(Message.assistant(text))
         try:
             action = parse_action(text, view_names=tuple(VIEWS))
@@ -148,7 +132,7 @@ def _named(views: list[Any]) -> str:
 class RefineBench:
     """The refine session's workbench over a host run: real renders, critic calls, gated edits."""
 
-    def __init__(self, host: Host, *, critic_system: str | None = None, task: str | None = None,
+    def __init__(self, host: StageHost, *, critic_system: str | None = None, task: str | None = None,
                  allowed: set[str] | None = None, critic_role: str = "critic") -> None:
         self.host = host
         self.critic_system = critic_system or template("critic_system")
@@ -209,10 +193,10 @@ class RefineBench:
                              f"The program:\n```python\n{source}```\n\nEarlier reviews:\n{earlier}\n\n"
                              "The views of the current build follow" + _named(views) + "."
                              + (f"\n{note} Its views follow the others." if close else ""),
-                             *self.host._refs(), *views, *close)]
+                             *self.host.refs(), *views, *close)]
         crit = None
         for _ in range(2):
-            text = self.host._call(self.critic_role, self.critic_system, msgs, max_tokens=2000)
+            text = self.host.call(self.critic_role, self.critic_system, msgs, max_tokens=2000)
             try:
                 crit = parse_critique(text, parts=parts)
                 break

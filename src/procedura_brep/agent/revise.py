@@ -56,16 +56,18 @@ class _CallsSpent(ProceduraError):
 
 
 class _Host:
-    """The model calls and tools of one revise (a tiny stand-in for a staged run)."""
+    """The model calls and tools of one revise: the refine loop's host (a
+    :class:`~.stages.StageHost` without a staged run's options or state)."""
 
     def __init__(self, client: Client, out_dir: Path, prompt: str, step: int, tools: Tools,
                  progress: Callable[[str, str], None], max_calls: int) -> None:
         self.client, self.out_dir, self.prompt, self.step = client, out_dir, prompt, step
         self.tools, self.name, self.progress = tools, "model", progress
+        self.options = self.state = None  # a revise hosts refine alone: no staged options or state
         self.max_calls, self.calls = max_calls, 0
         self.applied = 0  # edits written back to the run directory
 
-    def _call(self, role: str, system: str, messages: list[Message], *, max_tokens: int = 8000) -> str:
+    def call(self, role: str, system: str, messages: list[Message], *, max_tokens: int = 8000) -> str:
         if self.calls >= self.max_calls:
             raise _CallsSpent(f"the revise's {self.max_calls} model calls are spent")
         reply = self.client.complete(Request(role, self.step, system, tuple(messages), Settings(max_tokens=max_tokens)))
@@ -73,7 +75,7 @@ class _Host:
         self.calls += 1
         return reply.text
 
-    def _refs(self) -> list[Image]:
+    def refs(self) -> list[Image]:
         return []
 
 

@@ -11,13 +11,15 @@ from __future__ import annotations
 import json
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 from ..errors import ProceduraError
 from ..paths import write_atomic
 from .context import CommittedPart
+from .stages import STAGE_NAMES
 
-Stage = Literal["plan", "review", "build", "refine", "materials", "articulation", "finish", "done"]
+#: A value of ``state.stage``: a row of :data:`.stages.STAGES`, or ``done``.
+Stage = str
 STATE_VERSION = 1
 
 
@@ -54,6 +56,9 @@ class RunState:
         if d.pop("version", None) != STATE_VERSION:
             raise ResumeError("state.json is from another version of the tool; start a new run")
         d["committed"] = [CommittedPart(**c) for c in d.get("committed", [])]
+        if d.get("stage", "plan") not in STAGE_NAMES:
+            raise ResumeError(f"state.json names the stage {d.get('stage')!r}, which this version "
+                              f"does not have ({', '.join(STAGE_NAMES)}); start a new run")
         return cls(**d)
 
 

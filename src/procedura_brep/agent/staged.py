@@ -41,6 +41,7 @@ from .reference import Reference
 from .refine import PAIR_VIEWS, findings_text, refine
 from .review import enforce_review
 from .rundir import RunDir, RunState
+from .stages import STAGES, next_stage
 from .tools import PartVerdict, Tools
 
 log = logging.getLogger(__name__)
@@ -136,7 +137,7 @@ class StagedRun:
 
     # model calls -----------------------------------------------------------------------------
 
-    def _call(self, role: str, system: str, messages: list[Message], *, max_tokens: int = 8000) -> str:
+    def call(self, role: str, system: str, messages: list[Message], *, max_tokens: int = 8000) -> str:
         step = self.state.step
         reply = self.client.complete(Request(role, step, system, tuple(messages), Settings(max_tokens=max_tokens)))
         self.state.step = step + 1
@@ -145,30 +146,23 @@ class StagedRun:
     def _image_note(self) -> str:
         return "The attached image is the reference: match it.\n\n" if self.reference else ""
 
-    def _refs(self) -> list[Image]:
+    def refs(self) -> list[Image]:
         return [self.reference] if self.reference else []
 
     # stages ----------------------------------------------------------------------------------
 
     def run(self) -> StagedResult:
-        """Run the remaining stages (all of them for a new run)."""
+        """Run the stages of :data:`.stages.STAGES` from the current one on (all of them for a
+        new run); each row's method runs, then the state moves to the next row and is saved."""
         self.out_dir.mkdir(parents=True, exist_ok=True)
         st = self.state
         try:
-            if st.stage == "plan":
-                self._plan()
-            if st.stage == "review":
-                self._review()
-            if st.stage == "build":
-                self._build()
-            if st.stage == "refine":
-                self._refine()
-            if st.stage == "materials":
-                materials_stage(self, next_stage="articulation")
-            if st.stage == "articulation":
-                self._articulation()
-            if st.stage == "finish":
-                return self._finish("ok")
+            while st.stage != "done":
+                row = next(r for r in STAGES if r.name == st.stage)
+                result = getattr(self, row.method)()
+                if row.name == "finish":
+                    return result
+                self._advance(next_stage(row.name))
         except BudgetExceeded as exc:
             return self._finish("budget_exceeded", str(exc))
         except StagedError as exc:
@@ -176,20 +170,19 @@ class StagedRun:
         return self._finish("ok")
 
     def _advance(self, stage: str) -> None:
-        self.state.stage = stage  # type: ignore[assignment]
+        self.state.stage = stage
         self.dir.save(self.state)
 
-    def _plan(self) -> None:
+    def stage_plan(self) -> None:
         if not self.options.plan:
             self.progress("plan", "skipped (--no-plan): the model names each next part")
-            self._advance("build")
             return
         system = template("plan_system").replace("{mates}", _mate_table())
         msgs = [Message.user(template("plan_user").replace("{prompt}", self.prompt)
-                             .replace("{image_note}", self._image_note()), *self._refs())]
+                             .replace("{image_note}", self._image_note()), *self.refs())]
         last = ""
         for attempt in range(1, self.options.plan_attempts + 1):
-            text = self._call("plan", system, msgs)
+            text = self.call("plan", system, msgs)
             try:
                 plan = parse_plan(text)
             except PlanError as exc:
@@ -202,26 +195,23 @@ class StagedRun:
             self.state.plan = plan.as_dict()
             self.state.repairs += list(plan.notes)
             self.progress("plan", f"{len(plan.parts)} parts: {', '.join(plan.names)}")
-            self._advance("review")
             return
         raise StagedError(f"no usable plan after {self.options.plan_attempts} attempts: {last}")
 
-    def _review(self) -> None:
+    def stage_review(self) -> None:
         plan = self.plan
         if plan is None or not self.options.review:
-            self._advance("build")
             return
         system = template("review_system").replace("{mates}", _mate_table())
         msgs = [Message.user(template("review_user").replace("{prompt}", self.prompt)
                              .replace("{image_note}", self._image_note()).replace("{plan}", plan.to_json()),
-                             *self._refs())]
-        text = self._call("review", system, msgs)
+                             *self.refs())]
+        text = self.call("review", system, msgs)
         try:
             reviewed = parse_plan(text)
         except PlanError as exc:
             self.state.repairs.append(f"review reply unusable, plan kept as it was: {exc}")
             self.progress("review", f"unusable reply, plan kept ({exc})")
-            self._advance("build")
             return
         merged, repairs = enforce_review(plan, reviewed)
         repairs = [f"review: {n}" for n in reviewed.notes] + repairs
@@ -230,7 +220,6 @@ class StagedRun:
         added = [n for n in merged.names if n not in plan.names]
         self.progress("review", f"{len(merged.parts)} parts (+{len(added)}: {', '.join(added) or 'none'})"
                       + (f"; {len(repairs)} repair(s)" if repairs else ""))
-        self._advance("build")
 
     @property
     def plan(self) -> Plan | None:
@@ -253,7 +242,7 @@ class StagedRun:
         views = list(self.options.views) if self.options.views else None
         return self.tools.render(model, views)
 
-    def _build(self) -> None:
+    def stage_build(self) -> None:
         plan = self.plan
         system = template("build_system").replace("{reference}", reference())
         if plan is None:
@@ -273,7 +262,6 @@ class StagedRun:
             self._build_part(system, plan, part)
         if not self.state.committed:
             raise StagedError("no part could be built")
-        self._advance("refine")
 
     def _skip(self, name: str, why: str) -> None:
         self.state.skipped.append({"name": name, "reason": why})
@@ -409,10 +397,10 @@ class StagedRun:
             msgs = [Message.user(f"Object to build: {self.prompt}\n\nThere is no plan: choose the next "
                                  f"part yourself, mated to parts already built, and write its five blocks; "
                                  f"reply with the single word {DONE_WORD} when the object is complete."
-                                 f"\nParts so far: {', '.join(names) or 'none'}", *self._refs())]
+                                 f"\nParts so far: {', '.join(names) or 'none'}", *self.refs())]
             if self.state.source:
                 msgs.append(Message.user(f"The program so far:\n```python\n{self.state.source}```", *views))
-            text = self._call("build", system, msgs)
+            text = self.call("build", system, msgs)
             if text.strip().upper().rstrip(".") == DONE_WORD:
                 break
             feedback, verdict, result = self._try_part(text, _body_name(text) or "?")
@@ -424,13 +412,11 @@ class StagedRun:
                 self._skip(_body_name(text) or f"part_{len(names) + 1}", feedback.splitlines()[0] if feedback else "")
         if not self.state.committed:
             raise StagedError("no part could be built")
-        self._advance("refine")
 
     # refine ----------------------------------------------------------------------------------
 
-    def _refine(self) -> None:
+    def stage_refine(self) -> None:
         if not self.options.refine:
-            self._advance("materials")
             return
         model = self._current_model()
         parts = ", ".join(p.name for p in model.parts) if model else ""
@@ -454,7 +440,6 @@ class StagedRun:
                     self.state.committed[by_name[name]] = part
                 else:
                     self.state.committed.append(part)
-        self._advance("materials")
 
     # refine routed back to the build stage (issue 23.6) -----------------------------------------
 
@@ -541,9 +526,17 @@ class StagedRun:
         return got.result.source, done
 
 
+    # materials -------------------------------------------------------------------------------
+
+    def stage_materials(self) -> None:
+        """The materials stage (:mod:`.materials`) on the refined program."""
+        source = materials_stage(self)
+        if source != self.state.source:
+            self.state.source, self._model = source, None
+
     # articulation ----------------------------------------------------------------------------
 
-    def _articulation(self) -> None:
+    def stage_articulation(self) -> None:
         """Evidence, the planning call, gated mate edits, the battery and one battery fix
         (:mod:`.articulation`); the build it made is reused by the finish when nothing changed."""
         if self.options.articulation and self.state.source:
@@ -561,9 +554,11 @@ class StagedRun:
             self._prebuilt = (stage.built_source, stage.build)
             if source != self.state.source:
                 self.state.source, self._model = source, None
-        self._advance("finish")
 
     # finish ----------------------------------------------------------------------------------
+
+    def stage_finish(self) -> StagedResult:
+        return self._finish("ok")
 
     def _finish(self, status: str, message: str = "") -> StagedResult:
         st = self.state
