@@ -127,6 +127,22 @@ def hoist_verbose(argv: list[str]) -> list[str]:
     return flags + rest + argv[end:]
 
 
+def _json(data: Any) -> None:
+    """``data`` on stdout as indented JSON (values JSON does not know, as their text)."""
+    import json
+    typer.echo(json.dumps(data, indent=2, default=str, ensure_ascii=False))
+
+
+def _verdict(data: dict[str, Any], json_: bool, table: Callable[[dict[str, Any]], None]) -> None:
+    """The end of ``check`` and ``simulate``: the report as JSON or as its table, then exit 0
+    when it passed, 1 when not."""
+    if json_:
+        _json(data)
+    else:
+        table(data)
+    raise typer.Exit(EXIT_OK if data["passed"] else EXIT_FAIL)
+
+
 def _read(program: Path) -> str:
     """The program text, or an :class:`InputError` that names the file and what is wrong."""
     from .errors import InputError
@@ -249,7 +265,6 @@ def simulate(
     quiet: QuietOption = False,
 ) -> None:
     """Run the MuJoCo battery B0-B7; exit 1 when any check fails, 2 when TARGET is unusable."""
-    import json
 
     from . import commands
     from .errors import InputError
@@ -265,12 +280,8 @@ def simulate(
     with _progress(quiet) as progress:
         model = _compiled(program, source, progress=progress)
         data = commands.simulate(model, target, out=out, progress=progress)
-    if json_:
-        typer.echo(json.dumps(data, indent=2, default=str))
-    else:
-        from .console import print_battery
-        print_battery(data)
-    raise typer.Exit(EXIT_OK if data["passed"] else EXIT_FAIL)
+    from .console import print_battery
+    _verdict(data, json_, print_battery)
 
 
 @app.command()
@@ -371,7 +382,6 @@ def check(
 
     Exit 0 when every gate passes, 1 when a gate fails, 2 on usage or compile errors.
     """
-    import json
 
     from . import commands
     from .errors import CompileError
@@ -383,24 +393,18 @@ def check(
         except CompileError as exc:
             if not json_:
                 raise
-            typer.echo(json.dumps({"model": program_name(program), "passed": False,
-                                   "compiled": False, "error": str(exc),
-                                   "findings": [f.as_dict() for f in exc.findings]}, indent=2))
+            _json({"model": program_name(program), "passed": False, "compiled": False,
+                   "error": str(exc), "findings": [f.as_dict() for f in exc.findings]})
             raise typer.Exit(EXIT_USAGE) from None
         try:
             data = commands.check(model, source, progress=progress)
         except commands.StageError as exc:  # out of memory or time: a failed check, exit 1
             if not json_:
                 raise
-            typer.echo(json.dumps({"model": program_name(program), "passed": False,
-                                   "compiled": True, "error": str(exc)}, indent=2))
+            _json({"model": program_name(program), "passed": False, "compiled": True, "error": str(exc)})
             raise typer.Exit(EXIT_FAIL) from None
-    if json_:
-        typer.echo(json.dumps({**data, "compiled": True}, indent=2))
-    else:
-        from .console import print_check
-        print_check(data)
-    raise typer.Exit(EXIT_OK if data["passed"] else EXIT_FAIL)
+    from .console import print_check
+    _verdict({**data, "compiled": True} if json_ else data, json_, print_check)
 
 
 @app.command()
@@ -577,7 +581,6 @@ def revise(
     quiet: QuietOption = False,
 ) -> None:
     """Apply a person's change request to a run directory through diagnosed, gated edits."""
-    import json
 
     from .agent.revise import ReviseError
     from .agent.revise import revise as run
@@ -600,7 +603,7 @@ def revise(
              f"`procedura-brep build {run_dir}/program.py -o {run_dir}`)")
         raise typer.Exit(EXIT_FAIL) from None
     if json_out:
-        typer.echo(json.dumps(res.report, indent=2, ensure_ascii=False))
+        _json(res.report)
     if res.status == "ok":
         if not json_out:
             typer.echo(f"revised {run_dir}: {res.report.get('edits', 0)} edit(s)")

@@ -10,7 +10,7 @@ from .errors import ConfigError
 from .keys import ANTHROPIC_KEY_VARS, resolve_key
 from .messages import Message, Reply, Request, Usage
 from .network import ensure_network_allowed
-from .retry import Retryable, RetryPolicy, call_with_retries, retry_settings
+from .retry import Retryable, RetryPolicy, call_with_retries, network_setup
 from .sdk_errors import classify_sdk_error
 
 __all__ = ["AnthropicProvider", "parse_anthropic_response", "to_anthropic_messages"]
@@ -107,11 +107,8 @@ class AnthropicProvider(Provider):
         policy: RetryPolicy | None = None,
     ) -> None:
         super().__init__(model)
-        if not model:
-            raise ConfigError("anthropic: no model name; write anthropic:MODEL")
-        self.endpoint = (base_url or DEFAULT_ENDPOINT).rstrip("/")
-        ensure_network_allowed(self.endpoint)
-        self.timeout_s, self.policy = retry_settings(timeout_s, max_retries, policy)
+        self.endpoint, self.timeout_s, self.policy = network_setup(
+            "anthropic", model, base_url or DEFAULT_ENDPOINT, timeout_s, max_retries, policy)
         if client is None:
             key = resolve_key("anthropic", ANTHROPIC_KEY_VARS)
             try:

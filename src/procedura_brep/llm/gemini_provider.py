@@ -10,7 +10,7 @@ from .errors import ConfigError
 from .keys import GEMINI_KEY_VARS, resolve_key
 from .messages import Message, Reply, Request, Usage
 from .network import ensure_network_allowed
-from .retry import Retryable, RetryPolicy, call_with_retries, retry_settings
+from .retry import Retryable, RetryPolicy, call_with_retries, network_setup
 from .sdk_errors import classify_sdk_error
 
 __all__ = ["GeminiProvider", "gemini_config", "parse_gemini_response", "to_gemini_contents"]
@@ -99,11 +99,9 @@ class GeminiProvider(Provider):
         policy: RetryPolicy | None = None,
     ) -> None:
         super().__init__(model)
-        if not model:
-            raise ConfigError("gemini: no model name; write gemini:MODEL, e.g. gemini:gemini-2.5-flash")
-        self.endpoint = (base_url or DEFAULT_ENDPOINT).rstrip("/")
-        ensure_network_allowed(self.endpoint)
-        self.timeout_s, self.policy = retry_settings(timeout_s, max_retries, policy)
+        self.endpoint, self.timeout_s, self.policy = network_setup(
+            "gemini", model, base_url or DEFAULT_ENDPOINT, timeout_s, max_retries, policy,
+            example="gemini:gemini-2.5-flash")
         if client is None:
             key = resolve_key("gemini", GEMINI_KEY_VARS)
             try:

@@ -22,7 +22,7 @@ from .errors import ConfigError, ProviderError, one_line
 from .keys import key_vars_for_openai, resolve_key, resolve_openai_base_url
 from .messages import Image, Message, Reply, Request, Usage
 from .network import ensure_network_allowed, is_loopback
-from .retry import Retryable, RetryPolicy, call_with_retries, parse_retry_after, retry_settings
+from .retry import Retryable, RetryPolicy, call_with_retries, network_setup, parse_retry_after
 
 __all__ = ["MISSING_SDK_MESSAGE", "OpenAIProvider", "parse_chat_completion", "to_openai_messages"]
 
@@ -164,17 +164,15 @@ class OpenAIProvider(Provider):
         client: Any = None,
     ) -> None:
         super().__init__(model)
-        if not model:
-            raise ConfigError("openai: no model name; write openai:MODEL, e.g. openai:gpt-4o")
-        self.base_url = resolve_openai_base_url(base_url)
-        if not urlsplit(self.base_url).scheme.startswith("http"):
-            raise ConfigError(f"openai: base URL {self.base_url!r} must start with http:// or https://")
-        ensure_network_allowed(self.base_url)
+        base = resolve_openai_base_url(base_url)
+        if model and not urlsplit(base).scheme.startswith("http"):
+            raise ConfigError(f"openai: base URL {base!r} must start with http:// or https://")
+        self.base_url, self.timeout_s, self.policy = network_setup(
+            "openai", model, base, timeout_s, max_retries, policy, example="openai:gpt-4o")
         self.free = is_loopback(self.base_url)
         key_vars, required = key_vars_for_openai(self.base_url)
         self.api_key = api_key or resolve_key("openai", key_vars, required=required)
         self.endpoint = f"{self.base_url}/chat/completions"
-        self.timeout_s, self.policy = retry_settings(timeout_s, max_retries, policy)
         connect = min(CONNECT_TIMEOUT_S, self.timeout_s)
         self._sdk = _import_openai()
         if client is None:

@@ -85,6 +85,27 @@ def retry_settings(timeout_s: float | None, max_retries: int | None,
     )
 
 
+def network_setup(prefix: str, model: str, endpoint: str, timeout_s: float | None,
+                  max_retries: int | None, policy: "RetryPolicy | None" = None, *,
+                  example: str = "") -> tuple[str, float, "RetryPolicy"]:
+    """The preamble every network provider's constructor shares: a model name is required, the
+    endpoint (trailing ``/`` dropped) must be allowed by the network switch, and the timeout and
+    retry policy come from the arguments. Returns (endpoint, reply timeout, retry policy).
+
+    Raises:
+        ConfigError: no model name (the message shows ``prefix:MODEL`` and ``example``).
+        NetworkDisabledError: network calls are off and the endpoint is not loopback.
+    """
+    from .errors import ConfigError
+    from .network import ensure_network_allowed
+    if not model:
+        raise ConfigError(f"{prefix}: no model name; write {prefix}:MODEL" + (f", e.g. {example}" if example else ""))
+    endpoint = endpoint.rstrip("/")
+    ensure_network_allowed(endpoint)
+    timeout, pol = retry_settings(timeout_s, max_retries, policy)
+    return endpoint, timeout, pol
+
+
 def parse_retry_after(value: str | None) -> float | None:
     """Parse a ``Retry-After`` header (seconds or an HTTP date).
 
