@@ -59,8 +59,8 @@ def figures_from_json(d: Any) -> Figures | None:
                   and all(isinstance(x, (int, float)) for x in d[k]) for k in ("lo", "hi")))
     if not ok:
         return None
-    return Figures(d["solids"], d["faces"], tuple(float(x) for x in d["lo"]),  # type: ignore[arg-type]  # 3 checked above
-                   tuple(float(x) for x in d["hi"]), d["triangles"])  # type: ignore[arg-type]  # 3 checked above
+    return Figures(d["solids"], d["faces"], tuple(float(x) for x in d["lo"]),  # type: ignore[arg-type]  # 3 numbers: checked above
+                   tuple(float(x) for x in d["hi"]), d["triangles"])  # type: ignore[arg-type]  # 3 numbers: checked above
 
 
 def _count(shape: Any, kind: Any) -> int:
