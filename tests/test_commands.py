@@ -1,5 +1,5 @@
 """check, render, export and simulate do their tessellating work in the limited child
-(:mod:`procedura_brep.commands`): a blow-up there is one error line and exit 1, never a dead CLI.
+(:mod:`procedura_brep.run.commands`): a blow-up there is one error line and exit 1, never a dead CLI.
 
 The plants run the real CLI in a fresh process (no GL context, nothing meshed before the fork,
 as for a user) with the stage's work replaced by a memory hog or a sleeper.
@@ -28,7 +28,7 @@ WORK = {
 }
 HARNESS = """
 import importlib, sys, time
-from procedura_brep import isolate
+from procedura_brep import limited as isolate
 from procedura_brep.config import ParentLimits
 mod, attr, plant, wall = sys.argv[1], sys.argv[2], sys.argv[3], float(sys.argv[4])
 def hog(*a, **k):

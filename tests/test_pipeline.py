@@ -1,5 +1,5 @@
 """A run directory is always consistent: a failed, broken or interrupted rebuild never leaves a
-new program beside old models, nor an old report that says ok (policy in procedura_brep.rundir)."""
+new program beside old models, nor an old report that says ok (policy in procedura_brep.run.directory)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from procedura_brep.pipeline import build
 from procedura_brep.run import steps
+from procedura_brep.run.build import build
 
 LAMP = Path(__file__).parent / "program" / "lamp.py"
 BROKEN = LAMP.read_text().replace("return Box(90, 14, 10", "return Box(90, 14, -10")
@@ -186,7 +186,7 @@ def test_a_blow_up_after_the_compile_is_one_line_and_a_report(tmp_path, worker, 
             return {}
 
         monkeypatch.setattr(steps, "gate", slow)
-    monkeypatch.setattr("procedura_brep.isolate.PARENT", limits)
+    monkeypatch.setattr("procedura_brep.limited.PARENT", limits)
     out = tmp_path / "run"
     res = CliRunner().invoke(app, ["build", str(LAMP), "-o", str(out)])
     assert res.exit_code == 1, res.output

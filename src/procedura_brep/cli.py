@@ -168,7 +168,7 @@ def _progress(quiet: bool):
 
 def _output_dir(path: Path) -> Path:
     """Fail early (before any compile) when ``path`` cannot be a writable directory."""
-    from .rundir import ensure_dir
+    from .run.directory import ensure_dir
     return ensure_dir(path)
 
 
@@ -193,7 +193,7 @@ def _formats(text: str | None) -> tuple[str, ...]:
 def _do_build(program: Path, out: Path, formats: tuple[str, ...], source: str | None = None,
               gates: bool = True, simulate: bool = False, step_schema: str = "AP214",
               quiet: bool = False, keep_failed: bool = False) -> int:
-    from .pipeline import build
+    from .run.build import build
     with _progress(quiet) as progress:
         res = build(program, out, formats=formats, source=source, gates=gates, simulate=simulate,
                     step_schema=step_schema, progress=progress, export_failed=keep_failed)
@@ -242,7 +242,7 @@ def export(
     quiet: QuietOption = False,
 ) -> None:
     """Write the export bundle of PROGRAM (no gates, no report)."""
-    from . import commands
+    from .run import commands
     fmts = _formats(formats)
     _output_dir(out)
     with _progress(quiet) as progress:
@@ -266,8 +266,8 @@ def simulate(
 ) -> None:
     """Run the MuJoCo battery B0-B7; exit 1 when any check fails, 2 when TARGET is unusable."""
 
-    from . import commands
     from .errors import InputError
+    from .run import commands
     if not target.exists():
         raise InputError(f"{target} does not exist; pass a run directory or a program file")
     if target.is_dir() and not (target / "program.py").is_file():
@@ -306,11 +306,11 @@ def edit(
     from .errors import OutputError
     from .findings import blocking
     from .paths import program_name, write_atomic
-    from .pipeline import build as run_build
     from .program.edit import parse_assignment, set_params
     from .run import compile_model, gate
+    from .run.build import build as run_build
+    from .run.directory import output_reason
     from .run.report import describe
-    from .rundir import output_reason
     source = _read(program)
     values = dict(parse_assignment(s) for s in set_)
     new = set_params(source, values)
@@ -383,9 +383,9 @@ def check(
     Exit 0 when every gate passes, 1 when a gate fails, 2 on usage or compile errors.
     """
 
-    from . import commands
     from .errors import CompileError
     from .paths import program_name
+    from .run import commands
     source = _read(program)
     with _progress(quiet) as progress:
         try:
@@ -425,10 +425,10 @@ def render(
     quiet: QuietOption = False,
 ) -> None:
     """Render views of PROGRAM (parts-colour, grey clay or PBR), with cache and staleness."""
-    from . import commands
     from .errors import EditError, RangeError
     from .render.api import MODES, SIZE_RANGE
     from .render.views import parse_views
+    from .run import commands
     if mode not in MODES:  # refused before the compile
         raise EditError(f"unknown render mode {mode!r}; use one of: {', '.join(MODES)}")
     if not SIZE_RANGE[0] <= size <= SIZE_RANGE[1]:
@@ -489,7 +489,7 @@ def generate(
 ) -> None:
     """Generate an assembly with a model: plan, review, build one part per call, refine, then build
     the run directory (``--one-shot``: the whole program in one call)."""
-    from .agent.rundir import ResumeError
+    from .agent.runstate import ResumeError
     from .errors import InputError
     from .llm import ConfigError, LLMError
     from .llm.settings import resolve_image_model, resolve_model

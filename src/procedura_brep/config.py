@@ -263,7 +263,7 @@ TERMINAL = TerminalLimits()
 @dataclass(frozen=True)
 class ParentLimits:
     """Limits of the forked child that meshes, exports, gates and simulates a compiled model
-    (``procedura_brep.isolate``), so a blow-up there is a one-line error with report.json
+    (``procedura_brep.limited``), so a blow-up there is a one-line error with report.json
     written, never a dead or hung CLI.
 
     Attributes:

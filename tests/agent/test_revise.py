@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from procedura_brep.agent.revise import ReviseError, revise
-from procedura_brep.pipeline import build
+from procedura_brep.run.build import build
 
 ROOT = Path(__file__).parents[1]
 TAPE = ROOT / "tapes" / "lamp_revise.jsonl"

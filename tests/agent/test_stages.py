@@ -7,7 +7,7 @@ import json
 import pytest
 
 from procedura_brep.agent import stages
-from procedura_brep.agent.rundir import ResumeError, RunDir, RunState
+from procedura_brep.agent.runstate import ResumeError, RunDir, RunState
 from procedura_brep.agent.staged import StagedRun
 
 

@@ -11,10 +11,10 @@ from pathlib import Path
 
 import pytest
 
-from procedura_brep import pipeline
 from procedura_brep.errors import ProceduraError
-from procedura_brep.pipeline import build
+from procedura_brep.run import build as pipeline
 from procedura_brep.run import overlap
+from procedura_brep.run.build import build
 
 LAMP = Path(__file__).resolve().parents[1] / "program" / "lamp.py"
 LIFTED = LAMP.read_text().replace("foot=Location((0, 0, 0))", "foot=Location((0, 0, -0.5))")

@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 
-from procedura_brep.pipeline import build
+from procedura_brep.run.build import build
 from procedura_brep.testing.models import compiled
 from procedura_brep.testing.placed import BLOCK, block_on_base
 

@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 
 from procedura_brep.findings import failed
-from procedura_brep.pipeline import build, verify_and_export
 from procedura_brep.run import steps
+from procedura_brep.run.build import build, verify_and_export
 
 LAMP = Path(__file__).parents[1] / "program" / "lamp.py"
 LIFTED = LAMP.read_text().replace("foot=Location((0, 0, 0))", "foot=Location((0, 0, -0.5))")

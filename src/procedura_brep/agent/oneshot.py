@@ -31,8 +31,8 @@ from ..llm import (
 )
 from ..llm.errors import MalformedReplyError
 from ..paths import write_atomic
-from ..pipeline import BuildResult, build, dump_json
 from ..program.model import Finding
+from ..run.build import BuildResult, build, dump_json
 from .prompts import system_prompt, template
 
 log = logging.getLogger(__name__)
@@ -148,7 +148,7 @@ def _feedback_summary(findings: list[Finding]) -> str:
     """The findings sent back, in a line: how many, and each one's message (program line)."""
     if not findings:
         return "the build failed without findings"
-    from ..pipeline import describe
+    from ..run.build import describe
     shown = "; ".join(describe(f) for f in findings[:3])
     more = f" (+{len(findings) - 3} more)" if len(findings) > 3 else ""
     return f"{len(findings)} finding(s): {shown}{more}"

@@ -30,7 +30,7 @@ from ..program.splice import param_readers, program_parts
 from .actions import EditRefused
 from .prompts import part_format, template
 from .refine import RefineBench, refine
-from .rundir import RunDir
+from .runstate import RunDir
 from .tools import Tools
 
 log = logging.getLogger(__name__)

@@ -7,7 +7,7 @@ a ``role`` (``plan``, ``review``, ``build``, ``critic``, ``fixer``, ``articulati
 number, so a transcript replays call for call. Everything between the calls is deterministic
 (:class:`~procedura_brep.agent.tools.Tools`).
 
-The run directory is written after every commit (:mod:`.rundir`): a killed run resumes from
+The run directory is written after every commit (:mod:`.runstate`): a killed run resumes from
 ``state.json`` without losing or redoing a committed part, and the last committed program is
 always there. The ablation switches are the paper's Table 3 rows: ``plan=False`` builds without
 an assembly plan (the model names each next part itself), ``feedback=False`` sends no renders
@@ -40,7 +40,7 @@ from .prompts import reference, template
 from .reference import Reference
 from .refine import PAIR_VIEWS, findings_text, refine
 from .review import enforce_review
-from .rundir import RunDir, RunState
+from .runstate import RunDir, RunState
 from .stages import STAGES, next_stage
 from .tools import PartVerdict, Tools
 

@@ -126,7 +126,7 @@ class Tools:
                     formats: tuple[str, ...] | None = None) -> Any:
         """Build the run directory's models and reports from the final program (exported even
         when a gate fails, so the work is kept: status ``gates_failed``)."""
-        from ..pipeline import build
+        from ..run.build import build
         return build(out_dir / "program.py", out_dir, source=source, simulate=simulate, formats=formats,
                      export_failed=True)
 

@@ -1,7 +1,9 @@
 """The run layer: typed steps ``compile -> gate -> export -> simulate`` and how a run ends.
 
-Sits between sim/render and agent: it imports program, gates, export and sim; the agent, the
-pipeline (:func:`procedura_brep.pipeline.build`, the run directory) and the CLI import it.
+Sits between sim/render and agent: it imports program, gates, export and sim; the agent and the
+CLI import it. Its modules: :mod:`.steps` (the typed steps), :mod:`.build` (a run directory's
+build), :mod:`.directory` (the run directory's staging and failure policy), :mod:`.commands`
+(check, render, export, simulate in a limited child), :mod:`.report` and :mod:`.status`.
 
 Public API (names resolve lazily, PEP 562, so importing the package loads no CAD code)::
 

@@ -1,7 +1,7 @@
 """The export step overlapped with the gates: written ahead, kept only if the gates pass.
 
 A build gates its model, then exports it; on a machine with a second core the two can run at
-once. :func:`start_export` forks a limited child (:class:`procedura_brep.isolate.Limited`)
+once. :func:`start_export` forks a limited child (:class:`procedura_brep.limited.Limited`)
 that writes the exports into a hidden folder inside the run's staging folder while the caller
 tessellates the parts and runs the gates. If the gates pass (or the build exports a failing
 model anyway), :meth:`Overlapped.finish` writes ``mates.json``, waits for the child and moves
@@ -19,7 +19,7 @@ by the caller once its gates have passed, while the child finishes.
 
 The child is forked before anything is meshed in either process, and meshes only serially; it
 dies with its parent. A failure of the child is raised by :meth:`~Overlapped.finish` as the
-same :class:`~procedura_brep.isolate.ChildFailure` the serial export's failure would have been,
+same :class:`~procedura_brep.limited.ChildFailure` the serial export's failure would have been,
 so the caller reports it the same way.
 """
 
@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import ProceduraError
-from ..isolate import Limited
+from ..limited import Limited
 from ..program.model import CompiledModel
 from .steps import Bundle, export_formats, export_mates
 

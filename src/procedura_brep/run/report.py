@@ -1,7 +1,7 @@
 """``report.json`` of a build, assembled in one place from the steps' values.
 
 :func:`run_report` is the only function that lays the report out; the run directory policy
-(:mod:`procedura_brep.rundir`) may add ``kept_previous`` / ``previous`` when it keeps an
+(:mod:`procedura_brep.run.directory`) may add ``kept_previous`` / ``previous`` when it keeps an
 earlier build, and the agent adds its own sections (usage, plan) after the build.
 """
 

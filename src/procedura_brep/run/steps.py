@@ -6,9 +6,9 @@
 * :func:`simulate` (model + its bundle -> :class:`BatteryVerdict`; never reads ``program.py``).
 
 Each can be called alone (the staged agent compiles and gates one part at a time and writes
-nothing); :func:`procedura_brep.pipeline.build` composes them into a run directory. ``gate``,
+nothing); :func:`procedura_brep.run.build.build` composes them into a run directory. ``gate``,
 ``export`` and ``simulate`` tessellate: a caller that must survive a model whose meshes blow
-up runs them in :func:`procedura_brep.isolate.run_limited` (``build`` does).
+up runs them in :func:`procedura_brep.limited.run_limited` (``build`` does).
 """
 
 from __future__ import annotations

@@ -54,7 +54,7 @@ NEEDS: dict[str, str] = {"urdf": "urdf", "usd": "model.usda", "mjcf": "model.xml
 
 
 class _Export:
-    """The bundle's files being written in a forked child (:class:`procedura_brep.isolate.
+    """The bundle's files being written in a forked child (:class:`procedura_brep.limited.
     Limited`) while this process runs B2, which reads no file: on two cores the export costs
     no wall time. With ``b3`` the child then runs B3 (the rest scan, which reads no file
     either) and sends its result back, so it too runs beside B2. :meth:`wait` returns once the
@@ -64,7 +64,7 @@ class _Export:
 
     def __init__(self, model: CompiledModel, root: Path, formats: tuple[str, ...],
                  art: Articulation, b3: bool = False) -> None:
-        from ..isolate import Limited
+        from ..limited import Limited
         self.model, self.root, self.formats, self.art, self.b3 = model, root, formats, art, b3
         self.wait_s = 0.0
 
@@ -79,7 +79,7 @@ class _Export:
 
     def wait(self) -> CheckResult | None:
         """Wait for the files; B3's result when the child ran it, else None."""
-        from ..isolate import ChildFailure
+        from ..limited import ChildFailure
         t = time.perf_counter()
         child, self._child = self._child, None
         b3 = None

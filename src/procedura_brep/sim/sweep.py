@@ -699,7 +699,7 @@ def sweep_all(model: CompiledModel, art: Articulation, joints: list[Joint],
     """``({joint name: its sweep}, exact booleans run)`` of every joint in ``joints``
     (:meth:`SweepScene.sweep`, with ``extra[name]`` as its MuJoCo overshoot).
 
-    With ``parallel`` and a second core, a forked child (:class:`procedura_brep.isolate.
+    With ``parallel`` and a second core, a forked child (:class:`procedura_brep.limited.
     Limited`) shares the work: both processes take the next joint off one queue (a pipe
     holding the joints' indices) until it is empty, each with its own scene, and the child
     sends its sweeps back. Every sweep is the same whichever process runs it (a joint's sweep
@@ -711,7 +711,7 @@ def sweep_all(model: CompiledModel, art: Articulation, joints: list[Joint],
     scene = SweepScene(model, art)
     if not parallel or len(joints) < 2 or _cores() < 2:
         return {j.name: scene.sweep(j, extra=extra.get(j.name, ())) for j in joints}, scene.booleans
-    from ..isolate import ChildFailure, Limited
+    from ..limited import ChildFailure, Limited
     r, w = os.pipe()
     try:
         os.write(w, b"".join(struct.pack("<i", k) for k in range(len(joints))))

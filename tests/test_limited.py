@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from procedura_brep.isolate import run_limited
+from procedura_brep.limited import run_limited
 
 
 def _gone(pid: int) -> bool:

@@ -9,7 +9,7 @@ sends its JSON result back over a pipe, with ``{"stage": ..., "line": ...}`` mes
 limit, kills the child on overrun, and turns every way the child can die into one
 :class:`ChildFailure` with a one-line message.
 
-Users: the pipeline (``build``, and ``generate``'s builds) and :mod:`procedura_brep.commands`
+Users: the pipeline (``build``, and ``generate``'s builds) and :mod:`procedura_brep.run.commands`
 (``check``, ``render``, ``export``, ``simulate``).
 
 Fork before the parent ever meshes: a child forked after OCCT's parallel mesher ran hangs. The

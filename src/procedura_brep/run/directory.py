@@ -30,9 +30,9 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from . import interrupt
-from .errors import OutputError
-from .paths import write_atomic
+from .. import interrupt
+from ..errors import OutputError
+from ..paths import write_atomic
 
 #: Everything a build owns in a run directory (relative paths); the rest is left alone.
 BUILD_OUTPUTS: tuple[str, ...] = (

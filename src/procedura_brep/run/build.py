@@ -2,11 +2,11 @@
 
 ``compile`` runs in the warm sandbox worker; ``gate``, ``export`` and ``simulate``
 (:mod:`procedura_brep.run.steps`) run in that order in a limited child
-(:func:`procedura_brep.isolate.run_limited`): the gates run before anything is exported, and a
+(:func:`procedura_brep.limited.run_limited`): the gates run before anything is exported, and a
 model that fails them is not exported unless ``export_failed`` asks for it. Writes
 ``program.py``, ``report.json`` and, for a build that passed its gates (or any build with
 ``export_failed``), ``model.step``, ``mates.json`` and every other export asked for, first
-into a staging folder that is then swapped in (see :mod:`procedura_brep.rundir` for the policy
+into a staging folder that is then swapped in (see :mod:`procedura_brep.run.directory` for the policy
 when a build fails or is interrupted). ``report.json`` is written on every exit path; it is
 laid out once, by :func:`procedura_brep.run.report.run_report`.
 """
@@ -22,16 +22,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from . import interrupt
-from .errors import CompileError, OutputError, ProceduraError
-from .findings import Finding, blocking, failed
-from .paths import program_name
-from .program.model import CompiledModel
-from .run import steps
-from .run.report import describe, reason, run_report
-from .run.status import Status, exit_code
-from .run.steps import dump_json
-from .rundir import Staging
+from .. import interrupt
+from ..errors import CompileError, OutputError, ProceduraError
+from ..findings import Finding, blocking, failed
+from ..paths import program_name
+from ..program.model import CompiledModel
+from . import steps
+from .directory import Staging
+from .report import describe, reason, run_report
+from .status import Status, exit_code
+from .steps import dump_json
 
 log = logging.getLogger(__name__)
 
@@ -84,7 +84,7 @@ def build(program: Path, out_dir: Path, *, formats: tuple[str, ...] | None = Non
     """Compile ``program`` and write the run directory ``out_dir``.
 
     The build goes to a staging folder inside ``out_dir`` and is swapped in when done, so the
-    directory never mixes two builds (policy: :mod:`procedura_brep.rundir`). report.json is
+    directory never mixes two builds (policy: :mod:`procedura_brep.run.directory`). report.json is
     written on every exit path: success, findings, an export error, our own bug (then the
     exception propagates) and Ctrl-C (status ``interrupted``).
 
@@ -109,7 +109,7 @@ def build(program: Path, out_dir: Path, *, formats: tuple[str, ...] | None = Non
     t0 = time.perf_counter()
     name = name or program_name(program)
     source = program.read_text(encoding="utf-8") if source is None else source
-    from .export.bundle import parse_formats
+    from ..export.bundle import parse_formats
     fmts = tuple(dict.fromkeys(("step", *parse_formats(formats))))
     run = _Run(Staging(out_dir), BuildResult(Status.FAILED, out_dir), t0, progress)
     with interrupt.on_interrupt(run.interrupted):
@@ -187,7 +187,7 @@ class _Run:
     def fail(self, status: Status, findings: list[Finding] | None = None, *,
              interrupt_wins: bool = False) -> None:
         """Finish a build that wrote no bundle: program.py and report.json only, or the
-        previous complete build kept (:meth:`procedura_brep.rundir.Staging.finish_failed`)."""
+        previous complete build kept (:meth:`procedura_brep.run.directory.Staging.finish_failed`)."""
         if not self._claim(interrupt_wins=interrupt_wins):
             return
         self._finish_failed(status, findings)
@@ -227,7 +227,7 @@ def _build_into(run: _Run, source: str, name: str, fmts: tuple[str, ...], *, gat
     if not model.ok:
         run.fail(Status.FAILED)
         return
-    from .isolate import ChildFailure, run_limited
+    from ..limited import ChildFailure, run_limited
     first = "gates" if gates else "export"
     run.enter(first, _GATES_LINE if gates else _export_line(model, fmts))
 
@@ -279,7 +279,7 @@ def verify_and_export(model: CompiledModel, source: str, root: Path, fmts: tuple
                       gates: bool, simulate: bool, export_failed: bool, step_schema: str,
                       send: Callable[[dict[str, Any]], None]) -> dict[str, Any]:
     """gate -> export -> simulate into ``root`` (the staging folder): everything that
-    tessellates. Runs in the limited child of :func:`procedura_brep.isolate.run_limited`;
+    tessellates. Runs in the limited child of :func:`procedura_brep.limited.run_limited`;
     returns what the parent needs (JSON-safe): the sections of the report, the findings that
     fail the build, the files written, the timings and whether anything was exported.
 
@@ -292,7 +292,7 @@ def verify_and_export(model: CompiledModel, source: str, root: Path, fmts: tuple
     battery: list[Finding] = []
     ahead = None
     if gates and OVERLAP_EXPORT:
-        from .run.overlap import start_export
+        from .overlap import start_export
         ahead = start_export(model, root, formats=fmts, step_schema=step_schema)
         timings["tessellate_s"] = ahead.tessellate_s
     try:

@@ -1,5 +1,5 @@
 """The tessellating work of ``check``, ``render``, ``export`` and ``simulate``, run in the limited
-child of :func:`procedura_brep.isolate.run_limited` (as ``build`` and ``generate`` do).
+child of :func:`procedura_brep.limited.run_limited` (as ``build`` and ``generate`` do).
 
 The CLI compiles in the sandbox worker, then hands the compiled model to one of the functions
 here. Each runs its meshing, gates, exports, renders or battery in a forked child under
@@ -21,10 +21,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn
 
-from . import errors
-from .errors import OutputError, ProceduraError
-from .isolate import ChildFailure, Send, run_limited
-from .program.model import CompiledModel
+from .. import errors
+from ..errors import OutputError, ProceduraError
+from ..limited import ChildFailure, Send, run_limited
+from ..program.model import CompiledModel
 
 Progress = Callable[[str], None]
 #: ProceduraError classes whose message alone rebuilds them in the parent.
@@ -74,7 +74,7 @@ def check(model: CompiledModel, source: str, *, progress: Progress | None = None
         StageError: the gates ran out of memory or time, or their process died.
     """
     def heavy(send: Send) -> dict[str, Any]:
-        from .gates import check_model
+        from ..gates import check_model
         return check_model(model, source).as_dict()
 
     if progress is not None:
@@ -91,8 +91,8 @@ def export(model: CompiledModel, out: Path, *, formats: tuple[str, ...], step_sc
         StageError: as :func:`check`.
     """
     def heavy(send: Send) -> dict[str, Any]:
-        from .export.bundle import write_bundle
-        from .rundir import output_reason
+        from ..export.bundle import write_bundle
+        from .directory import output_reason
         try:
             files = write_bundle(model, out, formats=formats, step_schema=step_schema)  # type: ignore[arg-type]
         except OSError as exc:
@@ -119,8 +119,8 @@ def render(model: CompiledModel, out: Path, *, progress: Progress | None = None,
         StageError: as :func:`check`.
     """
     def heavy(send: Send) -> dict[str, Any]:
-        from .errors import EditError
-        from .render import render_to_dir
+        from ..errors import EditError
+        from ..render import render_to_dir
         try:
             res = render_to_dir(model, out, **options)
         except ValueError as exc:
@@ -146,7 +146,7 @@ def simulate(model: CompiledModel, target: Path, *, out: Path | None,
         StageError: as :func:`check`.
     """
     def heavy(send: Send) -> dict[str, Any]:
-        from .sim import battery
+        from ..sim import battery
         if target.is_dir():
             return battery.run_bundle(model, target, frames=not _gl_in_use()).as_dict()
         return battery.run_battery(model, out_dir=out, frames=not _gl_in_use()).as_dict()
