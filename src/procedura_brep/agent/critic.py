@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, cast
 
 from ..errors import ProceduraError
 
@@ -108,7 +108,7 @@ def parse_critique(text: str, *, parts: set[str] | None = None) -> Critique:
                 bad.append(line[:80])
             continue
         tag = im.group(1).upper()
-        severity: Severity = "MED" if tag == "MEDIUM" else tag  # type: ignore[assignment]
+        severity = cast(Severity, "MED" if tag == "MEDIUM" else tag)  # the pattern allows only these
         named = [n.strip().strip("`").split(".")[0] for n in im.group(2).split("+")]
         unknown = [n for n in named if parts is not None and n not in parts]
         if unknown:

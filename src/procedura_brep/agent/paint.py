@@ -176,7 +176,7 @@ def declared_entries(source: str, model_materials: Mapping[str, Material] | None
     for stmt in ast.parse(source).body:
         if not _is_material_call(stmt):
             continue
-        call = stmt.value  # type: ignore[attr-defined]
+        call = stmt.value  # type: ignore[attr-defined]  # an ast.Expr: _is_material_call checked it
         try:
             name = ast.literal_eval(call.args[0])
             values = {k.arg: ast.literal_eval(k.value) for k in call.keywords if k.arg}

@@ -141,12 +141,12 @@ class Joint:
         if kind.ball:
             return []
         if kind.compound:
-            turn: DofType = (CONTINUOUS if self.turn_lower is None else REVOLUTE).name  # type: ignore[assignment]
-            return [JointDof(self.name + SLIDE, PRISMATIC.name, self.lower, self.upper,  # type: ignore[arg-type]
+            turn: DofType = (CONTINUOUS if self.turn_lower is None else REVOLUTE).name  # type: ignore[assignment]  # a JointKind's name is a DofType
+            return [JointDof(self.name + SLIDE, PRISMATIC.name, self.lower, self.upper,  # type: ignore[arg-type]  # the kind's name is a DofType
                              self.effort, self.velocity, self.drive),
                     JointDof(self.name + TURN, turn, self.turn_lower, self.turn_upper,
                              self.torque, self.angular_velocity, default_drive(turn))]
-        return [JointDof(self.name, self.type, self.lower, self.upper, self.effort,  # type: ignore[arg-type]
+        return [JointDof(self.name, self.type, self.lower, self.upper, self.effort,  # type: ignore[arg-type]  # the mate type's name is a DofType
                          self.velocity, self.drive)]
 
     @property
@@ -259,15 +259,15 @@ def joint_limits(mate: CompiledMate) -> tuple[JointType, float | None, float | N
     """(type, lower, upper) in SI units relative to the compiled (home) pose."""
     kind = _kind(mate)
     if kind.ball:
-        return kind.name, 0.0, kind.to_si(mate_option(mate, "cone"))  # type: ignore[return-value]
+        return kind.name, 0.0, kind.to_si(mate_option(mate, "cone"))  # type: ignore[return-value]  # a JointKind's name is a JointType
     if not kind.limited:
-        return kind.name, None, None  # type: ignore[return-value]
+        return kind.name, None, None  # type: ignore[return-value]  # a JointKind's name is a JointType
     lim = mate.options.get("limits")
     if lim is None:
         raise ArticulationError(
             f"{mate.type} mate {mate.name!r} has no limits; give limits=(lo, hi) in mm")
     home = mate_option(mate, "home")
-    return kind.name, kind.to_si(lim[0] - home), kind.to_si(lim[1] - home)  # type: ignore[return-value]
+    return kind.name, kind.to_si(lim[0] - home), kind.to_si(lim[1] - home)  # type: ignore[return-value]  # a JointKind's name is a JointType
 
 
 def _groups(model: CompiledModel) -> dict[str, str]:

@@ -58,8 +58,8 @@ class ClipScorer:
 
     def __init__(self, setting: ClipSetting) -> None:
         try:
-            import open_clip  # type: ignore[import-not-found]
-            import torch  # type: ignore[import-not-found]
+            import open_clip  # type: ignore[import-not-found]  # optional, only for --clip
+            import torch  # type: ignore[import-not-found]  # optional, only for --clip
         except ImportError:
             raise BenchError(f"{setting.source} is set but open_clip is not installed: pip install "
                              "open_clip_torch (or unset it: the CLIP column is then not computed)") from None

@@ -36,7 +36,7 @@ def run_processes(tasks: list[Task], jobs: int, done: Done) -> list[Record]:
         futures = {pool.submit(run_task, t): i for i, t in enumerate(tasks)}
         for fut in as_completed(futures):
             out[futures[fut]] = fut.result()
-            done(out[futures[fut]])  # type: ignore[arg-type]
+            done(out[futures[fut]])  # type: ignore[arg-type]  # filled just above
     return [r for r in out if r is not None]
 
 
@@ -70,7 +70,7 @@ def run_ray(tasks: list[Task], address: str | None, done: Done) -> list[Record]:
         ready, pending = ray.wait(pending, num_returns=1)
         for ref in ready:
             out[refs[ref]] = ray.get(ref)
-            done(out[refs[ref]])  # type: ignore[arg-type]
+            done(out[refs[ref]])  # type: ignore[arg-type]  # filled just above
     return [r for r in out if r is not None]
 
 

@@ -243,7 +243,7 @@ def build_mjcf(model: CompiledModel, *, art: Articulation | None = None,
         if b1 == 0 or b2 == 0 or b1 == b2:
             continue
         n1, n2 = m.body(b1).name, m.body(b2).name
-        excluded.add(tuple(sorted((n1, n2))))  # type: ignore[arg-type]
+        excluded.add(tuple(sorted((n1, n2))))  # type: ignore[arg-type]  # always a pair of two names
     if excluded:
         log.info("excluding hull contacts at rest: %s", sorted(excluded))
     return _build(model, art, masses, floor_z, gains, sorted(excluded))

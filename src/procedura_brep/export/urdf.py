@@ -221,5 +221,5 @@ def urdf_files(model: CompiledModel, *, art: Articulation | None = None,
     masses = masses or link_masses(model, art)
     out = mesh_files(model, art)
     for prof, fname in ROBOT_FILES.items():
-        out[fname] = urdf_text(model, profile=prof, art=art, masses=masses).encode()  # type: ignore[arg-type]
+        out[fname] = urdf_text(model, profile=prof, art=art, masses=masses).encode()  # type: ignore[arg-type]  # ROBOT_FILES keys are the profiles
     return out

@@ -309,7 +309,7 @@ def verify_and_export(model: CompiledModel, source: str, root: Path, fmts: tuple
             if ahead is not None:
                 bundle = ahead.finish()
             else:
-                bundle = steps.export(model, root, formats=fmts, step_schema=step_schema)  # type: ignore[arg-type]
+                bundle = steps.export(model, root, formats=fmts, step_schema=step_schema)  # type: ignore[arg-type]  # the CLI's StepSchema enum checked it
     finally:
         if ahead is not None:
             ahead.discard()  # killed and removed unless finished

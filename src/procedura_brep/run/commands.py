@@ -94,7 +94,7 @@ def export(model: CompiledModel, out: Path, *, formats: tuple[str, ...], step_sc
         from ..export.bundle import write_bundle
         from .directory import output_reason
         try:
-            files = write_bundle(model, out, formats=formats, step_schema=step_schema)  # type: ignore[arg-type]
+            files = write_bundle(model, out, formats=formats, step_schema=step_schema)  # type: ignore[arg-type]  # the CLI's StepSchema enum checked it
         except OSError as exc:
             raise OutputError(out, output_reason(exc, out)) from None
         return {"files": sorted(str(k) for k in files)}

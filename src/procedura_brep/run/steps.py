@@ -194,7 +194,7 @@ def export_formats(model: CompiledModel, root: Path, fmts: tuple[str, ...], *,
     per: dict[str, float] = {}
     t = time.perf_counter()
     written = write_bundle(model, root, formats=fmts, timings=per,
-                           step_schema=step_schema, art=art)  # type: ignore[arg-type]
+                           step_schema=step_schema, art=art)  # type: ignore[arg-type]  # the CLI's StepSchema enum checked it
     times["export_s"] = times.get("export_s", 0.0) + time.perf_counter() - t
     for k, v in per.items():
         times[f"export_{k}_s"] = times.get(f"export_{k}_s", 0.0) + v

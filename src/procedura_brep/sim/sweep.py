@@ -152,7 +152,7 @@ def joint_values(joint: Joint, radius_mm: float, extra: tuple[float, ...] = ()) 
         n = max(4, math.ceil(2 * math.pi * max(radius_mm, 0.0) / step_mm))
         n = min(n, MAX_PAIR_SAMPLES)
         return (np.arange(n) * (2 * math.pi / n)).tolist()
-    lo, hi = float(joint.lower), float(joint.upper)  # type: ignore[arg-type]
+    lo, hi = float(joint.lower), float(joint.upper)  # type: ignore[arg-type]  # a swept joint has limits
     if joint.kind.turns:
         n = math.ceil((hi - lo) * max(radius_mm, 0.0) / step_mm) + 1
     else:
@@ -329,8 +329,8 @@ class SweepScene:
         blo, bhi = cb.min(axis=0) - TOL.sweep_box_slack_mm, cb.max(axis=0) + TOL.sweep_box_slack_mm
         if joint.kind.slides:
             lo, hi = ca.min(axis=0), ca.max(axis=0)
-            lo[2] += 1000.0 * min(0.0, float(joint.lower))  # type: ignore[arg-type]
-            hi[2] += 1000.0 * max(0.0, float(joint.upper))  # type: ignore[arg-type]
+            lo[2] += 1000.0 * min(0.0, float(joint.lower))  # type: ignore[arg-type]  # a swept joint has limits
+            hi[2] += 1000.0 * max(0.0, float(joint.upper))  # type: ignore[arg-type]  # a swept joint has limits
             return bool(np.all(lo <= bhi) and np.all(blo <= hi))
         # the box point nearest the joint origin (spherical) or axis (revolute)
         near = np.clip(0.0, blo, bhi)
@@ -516,7 +516,7 @@ class SweepScene:
         if joint.kind.endless:
             lo, hi = 0.0, 2 * math.pi
         else:
-            lo, hi = float(joint.lower), float(joint.upper)  # type: ignore[arg-type]
+            lo, hi = float(joint.lower), float(joint.upper)  # type: ignore[arg-type]  # a swept joint has limits
         step = TOL.sweep_step_mm
         min_adv = max(step / float(lever.max()), (hi - lo) / MAX_PAIR_SAMPLES)
         reach = ca.radius + cb.radius
