@@ -441,3 +441,20 @@ def test_provider_errors_are_the_package_s_errors_and_config_mistakes_are_usage(
         with pytest.raises(typer.Exit) as got:
             guarded(fail)()
         assert got.value.exit_code == code
+
+
+def test_the_battery_table_reads_as_quantities_not_python_dicts(capsys, monkeypatch):
+    """Issue 26.4: `simulate`'s table printed a Python dict cut off mid-word."""
+    from procedura_brep.console import print_battery
+    monkeypatch.setenv("COLUMNS", "160")  # one cell a line: the test reads cells whole
+    data = {"passed": True, "verified": True, "checks": [{
+        "id": "B1", "name": "dynamic settle", "status": "pass", "message": "settled",
+        "measured": {"max_drift_deg": 0.25, "root_speed_mps": 0.0, "finite": True,
+                     "joints": {"arm_pivot": {"drift_deg": 0.25, "gravity_torque_Nm": 8.87}}},
+        "limits": {"max_drift_deg": 1.0, "finite": True}}]}
+    print_battery(data)
+    out = capsys.readouterr().out
+    assert "{'" not in out and "arm_pivot" not in out
+    for cell in ("max drift 0.25 deg (limit 1)", "root speed 0 m/s", "finite: yes (limit yes)",
+                 "joints: 1 (each in --json)"):
+        assert cell in out, (cell, out)

@@ -40,18 +40,58 @@ def _num(v: Any) -> str:
     return f"{v:.3g}" if isinstance(v, (int, float)) else markup_safe(v, limit=CELL_CHARS)
 
 
+#: Unit suffixes of the battery's measured keys, longest first, and how a cell writes them.
+_UNITS: tuple[tuple[str, str], ...] = (
+    ("_mm3", "mm^3"), ("_mm2", "mm^2"), ("_mps", "m/s"), ("_rad", "rad"), ("_deg", "deg"),
+    ("_mm", "mm"), ("_Nm", "N m"), ("_m", "m"), ("_s", "s"), ("_N", "N"), ("_kg", "kg"))
+
+
+def _quantity(key: str, value: Any) -> str:
+    """One measured value in words: ``anchor err 0 m``, ``joints: 3 (per joint in --json)``."""
+    name, unit = key, ""
+    for suffix, word in _UNITS:
+        if key.endswith(suffix):
+            name, unit = key[: -len(suffix)], word
+            break
+    name = name.replace("_", " ")
+    if isinstance(value, bool):
+        return f"{name}: {'yes' if value else 'no'}"
+    if isinstance(value, (int, float)):
+        return f"{name} {_num(value)}" + (f" {unit}" if unit else "")
+    if isinstance(value, (dict, list, tuple)):
+        return f"{name}: {len(value)} (each in --json)"
+    return f"{name}: {markup_safe(value, limit=CELL_CHARS)}"
+
+
+def _measured_cell(check: dict[str, Any]) -> str:
+    """A check's measured values, one per line, each with its limit where it has one."""
+    limits = check.get("limits") or {}
+    rows = []
+    for key, value in (check.get("measured") or {}).items():
+        row = _quantity(key, value)
+        if key in limits and not isinstance(limits[key], (dict, list)):
+            lim = limits[key]
+            row += f" (limit {'yes' if lim is True else 'no' if lim is False else _num(lim)})"
+        rows.append(row)
+    return "\n".join(rows)
+
+
 def print_battery(data: dict[str, Any]) -> None:
+    """The battery as a table: a row per check with its verdict, its measured values (with
+    units, each beside its limit; per-joint and per-pair detail is in ``--json``) and its
+    message."""
     from rich.console import Console
     from rich.table import Table
     t = Table(title="MuJoCo battery")
-    for col in ("check", "name", "verdict", "measured", "limits", "message"):
-        t.add_column(col, overflow="fold")
+    t.add_column("check")
+    t.add_column("name")
+    t.add_column("verdict")
+    t.add_column("measured (limit)", overflow="fold")
+    t.add_column("message", overflow="fold", ratio=1)
     for c in data["checks"]:
         verdict = {"skip": "[yellow]skip[/]", "fail": "[red]FAIL[/]",
                    "not verified": "[yellow]not verified[/]"}.get(c["status"], "[green]pass[/]")
-        meas = ", ".join(f"{_cell(k)}={_cell(v)}" for k, v in (c.get("measured") or {}).items())
-        lim = ", ".join(f"{_cell(k)}={_cell(v)}" for k, v in (c.get("limits") or {}).items())
-        t.add_row(_cell(c["id"]), _cell(c.get("name", "")), verdict, meas, lim,
+        t.add_row(_cell(c["id"]), _cell(c.get("name", "")), verdict, _measured_cell(c),
                   markup_safe(c.get("message", "")))
     con = Console(file=sys.stdout)
     con.print(t)
