@@ -61,3 +61,15 @@ def test_resume_refuses_a_stage_the_table_does_not_have(tmp_path):
     rd.state_path.write_text(json.dumps(data))
     with pytest.raises(ResumeError, match="stage 'polish'"):
         rd.load()
+
+
+def test_history_numbers_are_unique_across_stages(tmp_path):
+    """Issue 26.3: two history entries shared the number 029 (the articulation stage counted
+    from the commits and refine's edits, not past the materials stage's entries)."""
+    from procedura_brep.agent.runstate import history_path
+    (tmp_path / "history").mkdir()
+    for name in ("001-base.py", "002-post.py", "002-post.attempt-1.txt", "003-refine-edit_part.py",
+                 "004-materials-library.py", "revisions.jsonl"):
+        (tmp_path / "history" / name).write_text("x")
+    assert history_path(tmp_path, "articulation-arm_pivot").name == "005-articulation-arm_pivot.py"
+    assert history_path(tmp_path / "new", "refine-set_param").name == "001-refine-set_param.py"

@@ -45,6 +45,7 @@ from .articulation_plan import (
     promotion_refusal,
 )
 from .prompts import template
+from .runstate import history_path
 from .stages import StageHost
 
 log = logging.getLogger(__name__)
@@ -72,9 +73,8 @@ def _errors(model: CompiledModel, source: str) -> set[tuple[str, str | None, str
 class ArticulationStage:
     """One run of the stage over ``source``; :meth:`run` returns the new program and the report."""
 
-    def __init__(self, host: StageHost, *, history_from: int = 0) -> None:
+    def __init__(self, host: StageHost) -> None:
         self.host = host
-        self.history_from = history_from
         self.report: dict[str, Any] = {"edits": [], "findings": []}
         self.build: Any = None  # the run-directory build of the final program, when made here
         self.built_source: str | None = None
@@ -108,8 +108,7 @@ class ArticulationStage:
         return model, None
 
     def _history(self, source: str, what: str) -> None:
-        self._n += 1
-        write_atomic(self.host.out_dir / "history" / f"{self.history_from + self._n:03d}-{what}.py", source)
+        write_atomic(history_path(self.host.out_dir, what), source)
 
     # the planning call -----------------------------------------------------------------------
 

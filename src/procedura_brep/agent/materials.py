@@ -46,6 +46,7 @@ from .paint import (
 )
 from .prompts import template
 from .refine import findings_text
+from .runstate import history_path
 from .stages import StageHost
 from .subparts import SubpartEdit, parse_subparts, splice_paint
 
@@ -153,9 +154,7 @@ class MaterialsBench:
         return True, ""
 
     def history(self, label: str) -> None:
-        folder = self.host.out_dir / "history"
-        taken = [int(p.name[:3]) for p in folder.glob("[0-9][0-9][0-9]-*")] if folder.is_dir() else []
-        write_atomic(folder / f"{max(taken, default=0) + 1:03d}-{STAGE}-{label}.py", self.source)
+        write_atomic(history_path(self.host.out_dir, f"{STAGE}-{label}"), self.source)
 
     def assignment(self) -> dict[str, str]:
         return {p.name: p.material for p in self.model.parts}

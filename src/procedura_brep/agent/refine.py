@@ -28,6 +28,7 @@ from .actions import (
 from .context import captions
 from .critic import Critique, CritiqueError, parse_critique
 from .prompts import template
+from .runstate import history_path
 from .stages import StageHost
 
 log = logging.getLogger(__name__)
@@ -47,7 +48,7 @@ def findings_text(findings: list[Finding], limit: int = 12,
 
 
 def refine(host: StageHost, source: str, *, intro: str, max_edits: int, max_actions: int,
-           history_from: int = 0, critic_system: str | None = None, task: str | None = None,
+           critic_system: str | None = None, task: str | None = None,
            allowed: set[str] | None = None, stage: str = "refine",
            roles: tuple[str, str] = ("fixer", "critic"),
            bench_type: type[RefineBench] | None = None) -> tuple[str, dict[str, Any]]:
@@ -57,7 +58,6 @@ def refine(host: StageHost, source: str, *, intro: str, max_edits: int, max_acti
         host: the run (model calls, tools, progress).
         source: the program to refine.
         intro: the fixer's first message.
-        history_from: numbering of the ``history/`` files written after each applied edit.
         critic_system: the critic's system prompt (default ``critic_system.md``).
         task: shown to the critic as what the build must satisfy (default: the prompt).
         allowed: edits touch only these parts (None: any); a critique may widen the set to the
@@ -86,8 +86,7 @@ def refine(host: StageHost, source: str, *, intro: str, max_edits: int, max_acti
         version = session.version
         step = session.run(action)
         if session.version != version:  # an applied edit (edit_part, set_param, add_part, rebuild)
-            write_atomic(host.out_dir / "history" / f"{history_from + session.edits:03d}-{stage}-{step.action}.py",
-                         session.source)
+            write_atomic(history_path(host.out_dir, f"{stage}-{step.action}"), session.source)
         images = bench.last_images if action.name == "render" and step.ok else []
         seen = (f"\nViews{_named(images)}. Colour legend: {bench.last_legend}"
                 if images else "")  # the fixer's images named and keyed, as the critic's

@@ -186,7 +186,7 @@ def revise(out_dir: Path, instruction: str, *, model: str, base_url: str | None 
     task = f"The change request: {instruction}\n(The assembly: {host.prompt})"
     try:
         new, report = refine(host, source, intro=intro, max_edits=max_edits, max_actions=max_actions,
-                             history_from=_history_count(out_dir), critic_system=template("critic_revise"),
+                             critic_system=template("critic_revise"),
                              task=task, allowed=allowed, stage="revise", roles=("revise", "revise_critic"),
                              bench_type=_RestrictedBench)
     except _CallsSpent as exc:  # the edits applied so far are in program.py already
@@ -204,11 +204,6 @@ def revise(out_dir: Path, instruction: str, *, model: str, base_url: str | None 
             result.status = "gates_failed"
     _log_revision(out_dir, report)
     return result
-
-
-def _history_count(out_dir: Path) -> int:
-    h = out_dir / "history"
-    return len([p for p in h.glob("*.py")]) if h.is_dir() else 0
 
 
 def _log_revision(out_dir: Path, report: dict[str, Any]) -> None:

@@ -62,6 +62,16 @@ class RunState:
         return cls(**d)
 
 
+def history_path(out_dir: Path, label: str) -> Path:
+    """``history/NNN-<label>.py`` with the next free number: one numbering for every stage that
+    writes the program back (commits, refine, materials, articulation, revise), so no two
+    entries share a number."""
+    folder = out_dir / "history"
+    taken = [int(p.name[:3]) for p in folder.glob("[0-9][0-9][0-9]-*") if p.name[:3].isdigit()] \
+        if folder.is_dir() else []
+    return folder / f"{max(taken, default=0) + 1:03d}-{label}.py"
+
+
 class RunDir:
     """Atomic writes of a staged run's files."""
 

@@ -425,8 +425,7 @@ class StagedRun:
         self._refine_plan, self._refine_commits = self.plan, {}
         source, self.refine_report = refine(self, self.state.source, intro=intro,
                                             max_edits=self.options.max_edits,
-                                            max_actions=self.options.max_actions,
-                                            history_from=len(self.state.committed))
+                                            max_actions=self.options.max_actions)
         self.state.refine = self.refine_report = _plain(self.refine_report)
         if source != self.state.source:
             self.state.source = source
@@ -541,8 +540,7 @@ class StagedRun:
         (:mod:`.articulation`); the build it made is reused by the finish when nothing changed."""
         if self.options.articulation and self.state.source:
             from .articulation import ArticulationStage
-            stage = ArticulationStage(self, history_from=len(self.state.committed)
-                                      + int(self.refine_report.get("edits", 0)))
+            stage = ArticulationStage(self)
             try:
                 source = stage.run(self.state.source)
             except LLMError:  # the provider failed: the run ends on it, as in every stage
