@@ -122,7 +122,7 @@ def test_importing_program_modules_by_name_loads_no_build123d():
     package's lazy names must not answer for its own submodules: once that cost the CLI's cold
     build 1.5-3 s of build123d and scikit-learn imports in the parent)."""
     code = ("import sys\n"
-            "from procedura_brep.program import cache, caps, keys, sandbox, splice, trust\n"
+            "from procedura_brep.program import cache, cachekeys, caps, sandbox, splice, trust\n"
             "print(sorted(m for m in sys.modules if m.split('.')[0] in ('build123d', 'sklearn')))\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]", out.stdout

@@ -42,7 +42,7 @@ def in_arm(body: str) -> str:
 #: importable. Everything else (the zygote, the limits, the OS layers, the reader of the
 #: child's result) is the real one.
 ESCAPED_WORKER = """
-from procedura_brep.program import policy, runtime
+from procedura_brep.program import allowlist as policy, runtime
 policy.check = lambda *a, **k: None
 policy.ALLOWED_IMPORTS |= {"os", "socket", "threading", "ctypes"}
 runtime.SAFE_BUILTINS += ("open",)

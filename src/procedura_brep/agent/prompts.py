@@ -76,7 +76,7 @@ def conventions() -> str:
     """Frames, motion, the language and the numeric gate limits, read from the code."""
     from ..config import TOL
     from ..mates.fits import BANDS_MM, ISO273_MM, iso286
-    from ..program.policy import FORBIDDEN_NAMES
+    from ..program.allowlist import FORBIDDEN_NAMES
     rows = ["## Conventions", "Lengths in mm, angles in degrees.",
             "`Location((x, y, z), (rx, ry, rz))`: the rotation is Rx(rx)\u00b7Ry(ry)\u00b7Rz(rz) (about X, then "
             "the new Y, then the new Z). Frames you will need:"]

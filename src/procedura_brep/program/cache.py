@@ -1,7 +1,7 @@
 """The per-part compile cache: a content-addressed store of final part solids.
 
 Each part's final solid (its function's result with every mate feature applied, in part-local
-coordinates) is stored under its key (:mod:`procedura_brep.program.keys` says what a key
+coordinates) is stored under its key (:mod:`procedura_brep.program.cachekeys` says what a key
 hashes: the part's own code, the helpers, classes, params and constants it reaches, and the
 mates that add features to it). A compile loads the solid of every part whose key is stored
 and runs only the others, so an edit, or a splice of one more part, rebuilds the parts whose

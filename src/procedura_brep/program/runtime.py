@@ -30,7 +30,7 @@ from ..findings import failed
 from ..mates import check_options, get_type
 from ..mates import placement as pl
 from ..mates.kinds import Motion
-from . import blocks, cache, caps, guards, keys, policy, registry
+from . import allowlist, blocks, cache, cachekeys, caps, guards, registry
 from .model import CompiledMate, CompiledModel, CompiledPart, Finding
 from .sections import parse_sections
 from .values import as_solid as _as_solid
@@ -51,11 +51,11 @@ def _guarded_import(name: str, globals_: Any = None, locals_: Any = None, fromli
     names = tuple(fromlist or ())
     if level == 0 and any(n.startswith("_") for n in names if n != "*"):
         raise ImportError("programs may not import names starting with '_'")
-    if level == 0 and name == policy.PROGRAM_MODULE and names in ((), ("*",)):
+    if level == 0 and name == allowlist.PROGRAM_MODULE and names in ((), ("*",)):
         return builtins.__import__(name, globals_, locals_, fromlist, level)
-    if level == 0 and name in policy.ALLOWED_IMPORTS:
+    if level == 0 and name in allowlist.ALLOWED_IMPORTS:
         return builtins.__import__(name, globals_, locals_, fromlist, level)
-    raise ImportError(f"programs may import only math and {policy.PROGRAM_MODULE}, not {name!r}")
+    raise ImportError(f"programs may import only math and {allowlist.PROGRAM_MODULE}, not {name!r}")
 
 
 def restricted_globals() -> dict[str, Any]:
@@ -84,7 +84,7 @@ def _explain(exc: BaseException, decl: registry.PartDecl, params: dict[str, Any]
     """Why a part failed, in words: the exception, plus the params it reads that are <= 0
     when the CAD kernel refused a construction (the usual cause of a raw OCCT error)."""
     text = _exc_text(exc)
-    bad = [n for n in keys.params_read(decl.fn.__code__, glb, params)
+    bad = [n for n in cachekeys.params_read(decl.fn.__code__, glb, params)
            if isinstance(params.get(n), (int, float)) and not isinstance(params.get(n), bool)
            and params[n] <= 0]
     occt = type(exc).__name__ in _OCCT_SIZE_ERRORS or type(exc).__module__.startswith("OCP")
@@ -138,10 +138,10 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     t0 = time.perf_counter()
     try:
         sections = parse_sections(source)
-        policy.check(source, tree=sections.tree)
+        allowlist.check(source, tree=sections.tree)
         known: set[str] = set()
         for p in sections.params.values():
-            policy.check_param_expr(p.expr, line=p.line, known=known)
+            allowlist.check_param_expr(p.expr, line=p.line, known=known)
             known.add(p.name)
     except ProgramFormatError as exc:
         b.fail("format", str(exc), line=exc.line)
@@ -174,9 +174,9 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
         return CompiledModel(name, params, [], [], b.findings, b.timings)
     t = _lap(b, "exec_s", t0)
     mates = _resolve_mates(b, reg, params)
-    scan = keys.scan_module(source, sections.tree)
+    scan = cachekeys.scan_module(source, sections.tree)
     volatile: set[str] = set()
-    part_keys = keys.part_keys(source, reg, params, mates, glb, scan=scan, volatile=volatile)
+    part_keys = cachekeys.part_keys(source, reg, params, mates, glb, scan=scan, volatile=volatile)
     t = _lap(b, "keys_s", t)
     hits = _load_cached(b, part_keys, cache_dir, painted={d.part for d in reg.paints})
     t = _lap(b, "cache_s", t)
@@ -198,7 +198,7 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     # state a part read that its key does not cover (a part that mutated a module-level list
     # or dict another part reads): those keys are dropped, so nothing stale is cached. Only a
     # key that hashed such a value can change (programs cannot rebind module names).
-    after = keys.part_keys(source, reg, params, mates, glb, scan=scan, only=volatile) \
+    after = cachekeys.part_keys(source, reg, params, mates, glb, scan=scan, only=volatile) \
         if volatile else {}
     part_keys = {n: k for n, k in part_keys.items()
                  if k and (n not in volatile or after.get(n) == k)}

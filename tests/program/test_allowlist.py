@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from procedura_brep.program import policy
-from procedura_brep.program.policy import PolicyViolation
+from procedura_brep.program import allowlist as policy
+from procedura_brep.program.allowlist import PolicyViolation
 
 ROOT = Path(__file__).resolve().parents[2]
 LAMP = (Path(__file__).parent / "lamp.py").read_text()

@@ -1,6 +1,6 @@
 """The static half of the sandbox: an AST allowlist every program must pass before it runs.
 
-Rules (DESIGN.md section 8):
+Rules (docs/program-format.md, "Security"):
   * imports: only ``from procedura_brep.program import *``, ``import math``, ``from math import ...``;
   * no name or attribute that starts with an underscore (so no dunder escapes such as
     ``x.__globals__``, ``().__class__``, ``__import__``, ``__builtins__``);
