@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import ast
 import re
+from collections.abc import Set as AbstractSet
 from dataclasses import dataclass, field
 from typing import TypeGuard, cast
 
@@ -370,25 +371,53 @@ def splice(program: str, reply: PartReply | str, *, after: str | None = None,
     blocks = parse_reply(reply) if isinstance(reply, str) else reply
     prog = _Program.read(program.replace("\r\n", "\n"))
     trees = {b: _parse_block(b, blocks.block(b)) for b in BLOCKS}
+    part = _part_function(trees, prog, after)
+    name = part.name
+    before = (set() if at_start else
+              set(prog.parts if after is None else prog.parts[:prog.parts.index(after) + 1]))
+    params = _merge_params(trees, prog, blocks, may_change)
+    renames, keep_helpers, dropped_helpers = _merge_helpers(trees, prog, name)
+    _check_owned(trees, name)
+    texts = _block_texts(blocks, trees, params.keep, keep_helpers, renames, part)
+    source = _insert(prog, texts, before, params.updates)
+    try:
+        sec = parse_sections(source)
+    except ProgramFormatError as exc:
+        raise SpliceError(f"the spliced program does not parse: {exc}") from None
+    inserted = {b: "\n".join(t for t, _ in texts[b]).strip("\n") for b in BLOCKS}
+    return SpliceResult(source, name, renames, params.dropped, dropped_helpers,
+                        _line_map(source, sec, texts), inserted, params.changed)
 
+
+def _part_function(trees: dict[str, ast.Module], prog: _Program, after: str | None) -> ast.FunctionDef:
+    """The body block's one ``@part`` function (a new part; ``after`` must be a part)."""
     body = trees["body"].body
     defs = [s for s in body if isinstance(s, ast.FunctionDef)]
     if len(body) != 1 or len(defs) != 1 or not _is_part_def(defs[0]):
         raise SpliceError("must hold exactly one function decorated with @part(...), and nothing else",
                           block="body")
-    name = defs[0].name
-    if name in prog.parts:
-        raise SpliceError(f"part {name!r} is already in the program", block="body", line=defs[0].lineno)
+    if defs[0].name in prog.parts:
+        raise SpliceError(f"part {defs[0].name!r} is already in the program", block="body", line=defs[0].lineno)
     if after is not None and after not in prog.parts:
         raise SpliceError(f"cannot insert after {after!r}: not a part; parts: {', '.join(prog.parts) or 'none'}")
-    before = (set() if at_start else
-              set(prog.parts if after is None else prog.parts[:prog.parts.index(after) + 1]))
+    return defs[0]
 
-    # params: new ones appended, repeats with the same expression dropped, clashes refused.
-    keep_params: list[ast.stmt] = []
-    dropped_params: list[str] = []
-    changed_params: list[str] = []
-    updates: dict[int, str] = {}  # program line -> new param line
+
+@dataclass
+class _Params:
+    """The params block against the program: what is kept, dropped, changed in place."""
+
+    keep: list[ast.stmt] = field(default_factory=list)
+    dropped: list[str] = field(default_factory=list)
+    changed: list[str] = field(default_factory=list)
+    updates: dict[int, str] = field(default_factory=dict)  # program line -> new param line
+
+
+def _merge_params(trees: dict[str, ast.Module], prog: _Program, blocks: PartReply,
+                  may_change: AbstractSet[str]) -> _Params:
+    """New params appended, repeats with the same expression dropped, clashes refused (a param
+    in ``may_change`` is changed in place)."""
+    out = _Params()
     for stmt in trees["params"].body:
         if not (isinstance(stmt, ast.Assign) and len(stmt.targets) == 1
                 and isinstance(stmt.targets[0], ast.Name)):
@@ -397,26 +426,31 @@ def splice(program: str, reply: PartReply | str, *, after: str | None = None,
         if pname in prog.params:
             old = prog.params[pname]
             if _norm(old.value) != _norm(stmt.value) and pname in may_change:
-                updates[old.lineno] = blocks.params.split("\n")[stmt.lineno - 1]
-                changed_params.append(pname)
+                out.updates[old.lineno] = blocks.params.split("\n")[stmt.lineno - 1]
+                out.changed.append(pname)
                 continue
             if _norm(old.value) != _norm(stmt.value):
                 raise SpliceError(
                     f"param {pname} = {ast.unparse(stmt.value)} clashes with the program's "
                     f"{pname} = {ast.unparse(old.value)} (line {old.lineno}); reuse it or pick a new name",
                     block="params", line=stmt.lineno)
-            dropped_params.append(pname)
+            out.dropped.append(pname)
             continue
         if pname in prog.helpers or pname in prog.parts:
             raise SpliceError(f"param {pname} has the name of an existing helper or part",
                               block="params", line=stmt.lineno)
-        keep_params.append(stmt)
+        out.keep.append(stmt)
+    return out
 
-    # helpers: identical copies dropped, same name with other code renamed in the new blocks.
+
+def _merge_helpers(trees: dict[str, ast.Module], prog: _Program,
+                   name: str) -> tuple[dict[str, str], list[ast.stmt], list[str]]:
+    """(renames, helpers kept, helpers dropped): identical copies dropped, the same name with
+    other code renamed in the new blocks."""
     taken = set(prog.params) | set(prog.helpers) | set(prog.parts) | {name}
     renames: dict[str, str] = {}
-    keep_helpers: list[ast.stmt] = []
-    dropped_helpers: list[str] = []
+    keep: list[ast.stmt] = []
+    dropped: list[str] = []
     new_names: set[str] = set()
     for stmt in trees["helpers"].body:
         if isinstance(stmt, ast.FunctionDef):
@@ -430,13 +464,18 @@ def splice(program: str, reply: PartReply | str, *, after: str | None = None,
             raise SpliceError(f"helper {hname} is defined twice", block="helpers", line=stmt.lineno)
         new_names.add(hname)
         if hname in prog.helpers and _norm(prog.helpers[hname]) == _norm(stmt):
-            dropped_helpers.append(hname)
+            dropped.append(hname)
             continue
         if hname in taken:
             renames[hname] = _free_name(hname, taken | new_names)
             taken.add(renames[hname])
-        keep_helpers.append(stmt)
+        keep.append(stmt)
+    return renames, keep, dropped
 
+
+def _check_owned(trees: dict[str, ast.Module], name: str) -> None:
+    """The frames and mates blocks hold only ``frames(...)`` / ``mate(...)`` calls of part
+    ``name``, and it publishes at least one frame."""
     for section, block in (("frames", "frames"), ("assembly", "mates")):
         for stmt in trees[block].body:
             if _call_name(stmt) != ("frames" if block == "frames" else "mate"):
@@ -449,7 +488,13 @@ def splice(program: str, reply: PartReply | str, *, after: str | None = None,
     if not trees["frames"].body:
         raise SpliceError(f"part {name!r} publishes no frames: add frames({name!r}, ...)", block="frames")
 
-    texts: dict[str, list[tuple[str, int]]] = {}  # block -> [(line text, line in block)]
+
+def _block_texts(blocks: PartReply, trees: dict[str, ast.Module], keep_params: list[ast.stmt],
+                 keep_helpers: list[ast.stmt], renames: dict[str, str],
+                 part: ast.FunctionDef) -> dict[str, list[tuple[str, int]]]:
+    """Each block's lines to insert, with their line in the block (0: an added blank line):
+    the renames applied, only the kept params and helpers, the body from its decorator."""
+    texts: dict[str, list[tuple[str, int]]] = {}
     for b in BLOCKS:
         src = blocks.block(b)
         keep = {"params": keep_params, "helpers": keep_helpers}.get(b)
@@ -465,10 +510,16 @@ def splice(program: str, reply: PartReply | str, *, after: str | None = None,
             if b == "helpers":
                 chosen += [("", 0), ("", 0)]
         texts[b] = chosen
-    body_first = min([defs[0].lineno] + [d.lineno for d in defs[0].decorator_list])
+    body_first = min([part.lineno] + [d.lineno for d in part.decorator_list])
     texts["body"] = [(t, i) for t, i in texts["body"] if i >= body_first]
+    return texts
 
-    # Insert from the bottom of the file up, so earlier insertion lines stay valid.
+
+def _insert(prog: _Program, texts: dict[str, list[tuple[str, int]]], before: set[str],
+            updates: dict[int, str]) -> str:
+    """The program with the blocks inserted, each in its section after the parts in
+    ``before`` (params and helpers always at the end), from the bottom of the file up so
+    earlier insertion lines stay valid; ``updates`` replaces param lines in place."""
     inserts: list[tuple[int, str, list[tuple[str, int]]]] = []
     for b in BLOCKS:
         rows = texts[b]
@@ -490,16 +541,7 @@ def splice(program: str, reply: PartReply | str, *, after: str | None = None,
         lines[lineno - 1] = text
     for at, _block, rows in sorted(inserts, key=lambda x: x[0], reverse=True):
         lines[at:at] = [t for t, _ in rows]
-    source = "\n".join(lines)
-    source = re.sub(r"\n{4,}", "\n\n\n", source)
-
-    try:
-        sec = parse_sections(source)
-    except ProgramFormatError as exc:
-        raise SpliceError(f"the spliced program does not parse: {exc}") from None
-    inserted = {b: "\n".join(t for t, _ in texts[b]).strip("\n") for b in BLOCKS}
-    return SpliceResult(source, name, renames, dropped_params, dropped_helpers,
-                        _line_map(source, sec, texts), inserted, changed_params)
+    return re.sub(r"\n{4,}", "\n\n\n", "\n".join(lines))
 
 
 def _line_map(source: str, sec: Sections, texts: dict[str, list[tuple[str, int]]]) -> dict[int, tuple[str, int]]:
