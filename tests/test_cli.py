@@ -133,6 +133,7 @@ def test_render_cli(tmp_path):
     assert res.exit_code == 2 and "sideways" in res.output
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_doctor_reports_every_component():
     res = invoke("doctor")
     names = ("CAD kernel", "MuJoCo", "OpenUSD", "render backend", "FreeCAD", "model")
@@ -314,6 +315,7 @@ def test_check_json_on_a_compile_error_is_json(tmp_path):
     assert data["passed"] is False and data["compiled"] is False and data["error"]
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_build_simulate_names_the_failing_check(tmp_path):
     wide = tmp_path / "wide.py"
     wide.write_text(LAMP.read_text().replace("limits=(-45, 45)", "limits=(-100, 100)"))

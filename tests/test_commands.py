@@ -72,6 +72,7 @@ def test_a_memory_blow_up_in_the_child_is_one_line_and_exit_1(cmd, tmp_path):
     assert "stage ran out of memory (address-space limit" in errors[0], errors[0]
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_a_check_over_the_wall_clock_is_exit_1_also_as_json(tmp_path):
     proc, seconds = _planted("check", "sleep", tmp_path, "--json", wall=2.0)
     assert proc.returncode == 1, proc.stderr

@@ -116,6 +116,7 @@ def interrupt_build(program: Path, out: Path, *, when: str | None, delay_s: floa
     ("writing", None, 0.05, "export"),       # the exporters (OCCT), beside or after the gates
     ("running the gates", None, 0.05, "gates"),
 ], ids=["compile-imports", "compile-parts", "export", "gates"])
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_sigint_stops_a_build_at_every_stage(tmp_path, when, until, delay_s, stage):
     out = tmp_path / "run"
     code, dt, err, left = interrupt_build(ROVER, out, when=when, delay_s=delay_s, until=until)
@@ -132,6 +133,7 @@ def test_sigint_stops_a_build_at_every_stage(tmp_path, when, until, delay_s, sta
     assert sorted(p.name for p in out.iterdir()) == ["program.py", "report.json"]
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_sigint_over_a_good_build_keeps_it(tmp_path):
     out = tmp_path / "run"
     done = subprocess.run([sys.executable, "-m", "procedura_brep.cli", "build", str(LAMP), "-o",

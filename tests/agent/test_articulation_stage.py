@@ -121,6 +121,7 @@ def run(tmp_path_factory):
     return result, out, lines
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_battery_failure_is_fixed_by_one_gated_edit(run):
     result, out, lines = run
     assert result.status == "ok", result.message

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
 from typer.testing import CliRunner
 
 from procedura_brep.cli import app
@@ -57,6 +58,7 @@ def test_revise_through_the_cli(tmp_path):
     assert res.exit_code == 2 and "not a part" in res.output
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_doctor_says_which_model_setting_is_in_force(tmp_path):
     cfg = tmp_path / "config.toml"
     cfg.write_text('model = "openai:llama3"\nbase_url = "http://127.0.0.1:9/v1"\n')

@@ -10,6 +10,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from procedura_brep.agent.staged import generate_staged
 
@@ -46,6 +47,7 @@ def _joints(report: dict) -> dict:
     return next(c for c in report["battery"]["checks"] if c["id"] == "B2")["measured"]["joints"]
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_the_recorded_cnc_router_slides_its_gantry_on_four_blocks_and_ships(tmp_path):
     report = _ships(ROUTER, tmp_path / "router", 28)
     joints = _joints(report)
@@ -62,6 +64,7 @@ def test_the_recorded_cnc_router_slides_its_gantry_on_four_blocks_and_ships(tmp_
 ARM = TAPES / "robot_arm_staged.jsonl"
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_the_recorded_robot_arm_replays_through_every_stage_and_ships(tmp_path):
     """The README's first command: re-recorded under issue 23's rules (parts around their own
     origins, B1 holding every joint's pose under gravity)."""
@@ -82,6 +85,7 @@ def test_the_recorded_robot_arm_replays_through_every_stage_and_ships(tmp_path):
 EXCAVATOR = TAPES / "excavator_staged.jsonl"
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_the_recorded_excavator_holds_its_boom_stick_and_bucket_and_ships(tmp_path):
     """A vehicle with several revolute joints: a slewing upper, and a boom, stick and bucket
     whose pins hold their gravity loads (B1) and sweep their ranges clear (B2)."""

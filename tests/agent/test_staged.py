@@ -81,6 +81,7 @@ def test_refine_refuses_an_undiagnosed_edit_and_applies_the_diagnosed_one(lamp_r
     assert (out / "history" / "004-refine-edit_part.py").read_text() == program
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_a_killed_run_resumes_to_the_same_program(tmp_path, lamp_run):
     _, whole, _ = lamp_run
     out = tmp_path / "killed"

@@ -41,6 +41,7 @@ def ci(tmp_path_factory):
     return out, run_bench(out, options())
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_ci_table(ci):
     out, res = ci
     rows = {(r["case"], r["variant"]): r for r in res.rows}
@@ -105,6 +106,7 @@ def test_from_rebuilds_tables_without_generating(ci, tmp_path):
     assert {p: p.stat().st_mtime_ns for p in copy.glob("runs/**/*") if p.is_file()} == mtimes
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_jobs_2_resumes_a_jobs_1_bench(ci, tmp_path):
     out, _ = ci
     copy = tmp_path / "copy"
@@ -116,6 +118,7 @@ def test_jobs_2_resumes_a_jobs_1_bench(ci, tmp_path):
     assert comparable(copy) == comparable(out)
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_ray_tables_equal_jobs_1_tables(ci, tmp_path):
     """Two of the three cases (four runs) run again as Ray tasks on a local 2-CPU instance; the
     third resumes from the --jobs 1 runs (resume across modes); the tables must not change."""

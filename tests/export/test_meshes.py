@@ -130,6 +130,7 @@ def _stl_faces(data: bytes) -> int:
     return struct.unpack_from("<I", data, 80)[0]
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_mujoco_meshes_stay_under_the_stl_limit(monkeypatch, tmp_path) -> None:
     """A part whose exact mesh exceeds MuJoCo's limit still loads in MuJoCo (MJCF and the
     MuJoCo-profile URDF): its STL visual and collision meshes are re-tessellated coarser."""

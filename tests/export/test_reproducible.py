@@ -48,6 +48,7 @@ def two_runs(tmp_path_factory) -> tuple[Path, Path]:
     return a, b
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_text_formats_identical_across_processes(two_runs: tuple[Path, Path]) -> None:
     a, b = two_runs
     for rel in TEXT_FILES:

@@ -118,6 +118,7 @@ def test_client_error_is_not_retried(fake_server):
     assert len(fake_server.requests) == 1
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_unreachable_endpoint_fails_within_15s_naming_it(closed_port_url):
     p = get_provider("openai:m", base_url=closed_port_url)  # default retries and backoff
     start = time.monotonic()

@@ -75,6 +75,7 @@ def test_policy_rejects_before_running(worker, pid, src, needle):
     assert not CANARY.exists()
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_infinite_loop_hits_cpu_limit(worker):
     t = time.monotonic()
     with pytest.raises(CompileError, match="CPU time limit|wall-clock limit"):
@@ -146,6 +147,7 @@ def test_stale_temp_folders_of_dead_owners_are_removed(tmp_path):
     assert alive.exists() and other.exists() and not dead.exists()
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_caller_survives_and_worker_still_compiles(worker):
     with pytest.raises(CompileError):
         worker.compile(in_part("import_me = 1\nwhile True:\n    pass"), CompileOptions(limits=FAST))
@@ -261,6 +263,7 @@ def _children(pid: int) -> list[int]:
     return out
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_the_spare_child_dies_with_its_worker_and_holds_none_of_its_pipes(tmp_path):
     """The zygote forks each compile's child ahead of its request (the spare). The spare must
     hold none of the zygote's pipes (else a dead zygote's caller waits forever on its stdout)
@@ -346,6 +349,7 @@ def test_a_child_that_dies_without_reporting_done_is_answered_by_its_exit_status
     assert child.pid not in worker._UNREAPED
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_a_share_that_loops_ends_the_first_compile_within_one_limit(tmp_path):
     """The first compile's shares run under the same limits; a share killed for its CPU limit
     is the compile's error, in one limit's time (not the share's plus the compile's)."""

@@ -54,6 +54,7 @@ def test_a_program_compiles_through_the_server_as_it_does_locally(served, monkey
     assert [p.digest for p in remote.parts] == [p.digest for p in local.parts]
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_a_runaway_program_ends_in_an_error_and_the_server_lives_on(served, monkeypatch):
     path, proc = served
     w = _remote(path, monkeypatch)

@@ -49,6 +49,7 @@ def test_axis_rotated_30_degrees_fails_b0(lamp, tmp_path):
     assert b0.measured["axis_err_rad"] == pytest.approx(np.radians(30), rel=1e-3)
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_limits_into_the_base_fail_b2(worker, tmp_path):
     model = compile_lamp(worker, limits=(-100, 100))
     report = run_battery(model, out_dir=tmp_path, checks=["B2", "B3"])

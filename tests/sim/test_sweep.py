@@ -132,6 +132,7 @@ def arm_wide_elbow(worker):
     return _compile("arm", src.replace("limits=(-65, 135)", "limits=(-135, 135)"), worker)
 
 
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
 def test_elbow_through_the_turret_is_found_between_the_extremes(arm_wide_elbow):
     art = articulate(arm_wide_elbow)
     elbow = art.joint("forearm_elbow")
