@@ -640,6 +640,24 @@ def serve(
 
 @app.command()
 @guarded
+def mcp(
+    http: Annotated[Optional[int], typer.Option("--http", min=1, max=65535, help="Serve streamable "
+                                                "HTTP on 127.0.0.1:PORT instead of stdio.")] = None,
+) -> None:
+    """Serve the tool over MCP (stdio): check, build, render, simulate ... for coding agents.
+
+    One process for the session, so the compile worker stays warm. Configure a client with the
+    command `procedura-brep mcp` (README, "MCP server")."""
+    try:
+        from .mcp_server import serve
+    except ImportError as exc:  # the mcp SDK is a dependency; a broken install says so
+        _err(f"the MCP server needs the mcp package ({exc}); pip install -e .")
+        raise typer.Exit(EXIT_FAIL) from None
+    serve(http)
+
+
+@app.command()
+@guarded
 def doctor(
     model: Annotated[Optional[str], typer.Option("--model", "-m", help="Also check this provider.")] = None,
     base_url: Annotated[Optional[str], typer.Option("--base-url")] = None,
