@@ -460,3 +460,24 @@ def test_the_battery_table_reads_as_quantities_not_python_dicts(capsys, monkeypa
     for cell in ("max drift 0.25 deg (limit 1)", "root speed 0 m/s", "finite: yes (limit yes)",
                  "joints: 1 (each in --json)"):
         assert cell in out, (cell, out)
+
+
+def test_mistyped_names_get_a_did_you_mean(tmp_path):
+    """Issue 26.4: a mistyped param, part, mate or material is answered with the closest name."""
+    from procedura_brep import materials
+    from procedura_brep.errors import EditError
+    from procedura_brep.program.edit import set_params
+    from procedura_brep.text import did_you_mean
+    lamp = (Path(__file__).parent / "program" / "lamp.py").read_text()
+    with pytest.raises(EditError, match=r"unknown param\(s\) post_hh \(did you mean 'post_h'\?\)"):
+        set_params(lamp, {"post_hh": 100})
+    with pytest.raises(materials.MaterialError, match=r"did you mean 'aluminium'\?"):
+        materials.get("aluminum")
+    assert did_you_mean("wheel_rx", ["wheel_fl", "wheel_rl", "chassis"]) == " (did you mean 'wheel_rl'?)"
+    assert did_you_mean("zzz", ["wheel_fl", "chassis"]) == ""
+    from procedura_brep.agent.revise import ReviseError, revise
+    out = tmp_path / "lamp"
+    out.mkdir()
+    (out / "program.py").write_text(lamp)
+    with pytest.raises(ReviseError, match=r"--part pots: not a part \(did you mean 'post'\?\)"):
+        revise(out, "taller", model="scripted:", parts=["pots"])

@@ -80,5 +80,5 @@ def test_json_round_trip_checks_every_field():
 def test_lookup_lists_the_library():
     lib = {**LIB, "hull_paint": declare("hull_paint", library=LIB, base="steel")}
     assert materials.get("hull_paint", lib).name == "hull_paint"
-    with pytest.raises(MaterialError, match="unknown material 'hul_paint'; use one of: .*hull_paint"):
+    with pytest.raises(MaterialError, match="unknown material 'hul_paint' \\(did you mean 'hull_paint'\\?\\); use one of: .*hull_paint"):
         materials.get("hul_paint", lib)

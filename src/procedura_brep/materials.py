@@ -21,6 +21,7 @@ from typing import Any, Literal, get_args
 
 from .config import MATERIAL
 from .errors import ProceduraError
+from .text import did_you_mean
 
 MaterialClass = Literal["metal", "polymer", "elastomer", "ceramic", "composite", "wood", "glass"]
 CLASSES: tuple[str, ...] = get_args(MaterialClass)
@@ -101,7 +102,8 @@ def get(name: str, library: Mapping[str, Material] | None = None) -> Material:
     try:
         return lib[name]
     except (KeyError, TypeError):
-        raise MaterialError(f"unknown material {name!r:.60}; use one of: {', '.join(lib)}") from None
+        raise MaterialError(f"unknown material {name!r:.60}{did_you_mean(name, lib)}; use one of: "
+                            f"{', '.join(lib)}") from None
 
 
 def default_library() -> dict[str, Material]:

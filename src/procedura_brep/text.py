@@ -12,6 +12,7 @@ printed; files (report.json) keep the full text.
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 
 from .config import TERMINAL
 
@@ -62,3 +63,11 @@ def markup_safe(text: object, *, limit: int | None = None) -> str:
 
 
 __all__ = ["terminal_safe", "markup_safe"]
+
+
+def did_you_mean(name: object, choices: Iterable[str]) -> str:
+    """``" (did you mean 'wheel_fl'?)"`` for the closest of ``choices`` to a mistyped ``name``
+    (difflib's ratio 0.6 or better), or ``""`` when none is close."""
+    import difflib
+    best = difflib.get_close_matches(str(name), list(choices), n=1, cutoff=0.6)
+    return f" (did you mean {best[0]!r}?)" if best else ""

@@ -35,6 +35,7 @@ from ..mates import TYPES
 from ..paths import write_atomic
 from ..program.mate_edit import REMOVE, set_mate
 from ..program.model import CompiledModel
+from ..text import did_you_mean
 from .articulation_plan import (
     ArticulationPlan,
     ArticulationPlanError,
@@ -142,7 +143,8 @@ class ArticulationStage:
         """The program with edit ``e`` applied (raises EditError when it cannot be)."""
         mate = next((m for m in model.mates if m.name == e.mate), None)
         if mate is None:
-            raise EditError(f"no mate named {e.mate!r}; mates: {', '.join(m.name for m in model.mates)}")
+            names = [m.name for m in model.mates]
+            raise EditError(f"no mate named {e.mate!r}{did_you_mean(e.mate, names)}; mates: {', '.join(names)}")
         new_type = e.promote_to or mate.type
         mtype = TYPES[new_type]
         if e.promote_to:

@@ -37,6 +37,7 @@ from ..errors import ProceduraError
 from ..mates.kinds import Motion
 from ..mates.vocabulary import TYPES
 from ..program.model import CompiledMate, CompiledModel
+from ..text import did_you_mean
 
 _FENCE_RE = re.compile(r"```(?:json)?\s*\n(.*?)```", re.S)
 #: Options a joint or promotion entry may set (besides ``mate``, ``type`` and ``drive``).
@@ -105,7 +106,7 @@ def _entry(item: Any, where: str, mates: dict[str, CompiledMate], promote: bool,
                         f"{', '.join(sorted(allowed))}")
     m = mates.get(name)
     if m is None:
-        problems.append(f"{where}: no mate named {name!r}; mates: {', '.join(mates)}")
+        problems.append(f"{where}: no mate named {name!r}{did_you_mean(name, mates)}; mates: {', '.join(mates)}")
         return None
     if promote and m.kind != "static":
         problems.append(f"promote {name}: it is already kinematic ({m.type}); list it under joints")

@@ -27,6 +27,7 @@ from ..errors import ProceduraError
 from ..llm import Client, Image, Message, Request, Settings
 from ..paths import write_atomic
 from ..program.splice import param_readers, program_parts
+from ..text import did_you_mean
 from .actions import EditRefused
 from .prompts import part_format, template
 from .refine import RefineBench, refine
@@ -165,7 +166,8 @@ def revise(out_dir: Path, instruction: str, *, model: str, base_url: str | None 
     names = program_parts(source)
     unknown = [p for p in parts or [] if p not in names]
     if unknown:
-        raise ReviseError(f"--part {', '.join(unknown)}: not a part; parts: {', '.join(names)}")
+        raise ReviseError(f"--part {', '.join(unknown)}: not a part{did_you_mean(unknown[0], names)}; "
+                          f"parts: {', '.join(names)}")
     progress = progress or (lambda stage, text: log.info("%s: %s", stage, text))
     step = _first_step(out_dir)
     provider = preflight(model, base_url=base_url)

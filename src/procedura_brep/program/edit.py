@@ -11,6 +11,7 @@ import re
 from collections.abc import Mapping
 
 from ..errors import EditError, ProgramFormatError
+from ..text import did_you_mean
 from .sections import Sections, parse_sections
 
 VALUE_RE = re.compile(r"[+-]?(\d+(\.\d*)?|\.\d+)([eE][+-]?\d+)?")
@@ -67,7 +68,8 @@ def set_params(source: str, values: Mapping[str, float | int | bool]) -> str:
         raise EditError(f"cannot edit: {exc}") from None
     unknown = [n for n in values if n not in sec.params]
     if unknown:
-        raise EditError(f"unknown param(s) {', '.join(unknown)}; params: {', '.join(sec.params)}")
+        hint = did_you_mean(unknown[0], sec.params)
+        raise EditError(f"unknown param(s) {', '.join(unknown)}{hint}; params: {', '.join(sec.params)}")
     for name, value in values.items():
         p = sec.params[name]
         if (is_size_param(name, p.comment) and not isinstance(value, bool) and value <= 0

@@ -15,6 +15,7 @@ from PIL import Image
 
 from ..errors import RangeError
 from ..program.model import CompiledModel
+from ..text import did_you_mean
 from . import compose, scene
 from .cache import Manifest, geometry_key, image_key
 from .gl import Mode, renderer
@@ -85,7 +86,8 @@ def resolve_focus(model: CompiledModel, name: str) -> Focus:
             o = np.asarray(m.world_frame, float)[:3, 3]
             return Focus(name, shown, o - half, o + half, [(name, np.asarray(m.world_frame, float))],
                          half * 0.6)
-    raise ValueError(f"close-up target {name!r} is neither a part nor a mate; parts: "
+    hint = did_you_mean(name, [*parts, *(m.name for m in model.mates)])
+    raise ValueError(f"close-up target {name!r} is neither a part nor a mate{hint}; parts: "
                      f"{', '.join(parts)}; mates: {', '.join(m.name for m in model.mates) or '(none)'}")
 
 
@@ -100,7 +102,8 @@ def part_frames(model: CompiledModel, names: Sequence[str]) -> list[tuple[str, n
     parts = {p.name: p for p in model.parts}
     unknown = [n for n in names if n not in parts]
     if unknown:
-        raise ValueError(f"no part named {', '.join(map(repr, unknown))} to draw the frames of; "
+        raise ValueError(f"no part named {', '.join(map(repr, unknown))}{did_you_mean(unknown[0], parts)} "
+                         f"to draw the frames of; "
                          f"parts: {', '.join(parts) or '(none)'}")
     out: list[tuple[str, np.ndarray]] = []
     for name in dict.fromkeys(names):
