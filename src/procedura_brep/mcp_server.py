@@ -12,7 +12,8 @@ Every tool returns structured content (findings with their codes, measured value
 a one-line text. Tools: ``new_program``, ``check``, ``build``, ``edit_params``, ``splice_part``,
 ``render`` (images), ``simulate``, ``export``, ``mate_vocabulary``. Resource:
 ``procedura-brep://reference`` (the program API and the mate vocabulary, as the model's build
-requests state them).
+requests state them). A ``check`` of a program whose compiled geometry and text this server has
+gated already is answered from its memory (:func:`_gates`).
 """
 
 from __future__ import annotations
@@ -75,6 +76,32 @@ def _compile(program: str, name: str, time_limit_s: float | None = None) -> Any:
     return compile_source(program, name=name, limits=limits)
 
 
+#: Gate reports of the programs this server has checked, by the compiled geometry (every part's
+#: digest, every mate's frame) and the source: a check of an unchanged program is answered from
+#: here; any change runs the gates again in a limited child.
+_GATED: dict[str, dict[str, Any]] = {}
+_GATED_MAX = 64
+
+
+def _gates(model: Any, source: str) -> dict[str, Any]:
+    """``run.commands.check`` (every gate, in a limited child), remembered per geometry."""
+    import hashlib
+    import json
+
+    from .run import commands
+    h = hashlib.sha256(source.encode("utf-8"))
+    for p in model.parts:
+        h.update(f"{p.name}\0{p.digest}\n".encode())
+    for m in model.mates:
+        h.update(json.dumps([m.name, [[round(float(x), 9) for x in row] for row in m.world_frame]]).encode())
+    key = h.hexdigest()
+    if key not in _GATED:
+        if len(_GATED) >= _GATED_MAX:
+            _GATED.pop(next(iter(_GATED)))
+        _GATED[key] = commands.check(model, source)
+    return _GATED[key]
+
+
 def _findings(data: dict[str, Any]) -> list[dict[str, Any]]:
     return [{k: v for k, v in f.items() if v is not None} for f in data.get("findings", [])]
 
@@ -102,9 +129,8 @@ def build_server() -> Any:
                              "time_limit_s lowers the compile's CPU limit (default 60 s).")
     @_guard
     def check(program: str, name: str = "model", time_limit_s: float | None = None) -> CallToolResult:
-        from .run import commands
         model = _compile(program, name, time_limit_s)
-        data = commands.check(model, program)
+        data = _gates(model, program)
         errors = [f for f in _findings(data) if f.get("severity") == "error"]
         text = ("all gates pass" if data["passed"] else
                 f"{len(errors)} error(s); first: {errors[0].get('message', '') if errors else '?'}")
@@ -116,9 +142,8 @@ def build_server() -> Any:
     @_guard
     def edit_params(program: str, params: dict[str, float], name: str = "model") -> CallToolResult:
         from .program.edit import set_params
-        from .run import commands
         new = set_params(program, params)
-        data = commands.check(_compile(new, name), new)
+        data = _gates(_compile(new, name), new)
         return _result(f"set {', '.join(params)}; gates {'pass' if data['passed'] else 'fail'}",
                        {"ok": True, "program": new, "passed": data["passed"], "findings": _findings(data)})
 
