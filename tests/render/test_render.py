@@ -189,3 +189,18 @@ def test_renders_beside_mujoco_egl(model: CompiledModel) -> None:
         assert r.render().max() > 0
     img = np.asarray(render_images(model, ["front"], size=48)["front"])
     assert (img != np.array(BACKGROUND["parts"], np.uint8)).any()
+
+
+def test_a_pbr_sheet_s_legend_shows_the_materials_and_views_say_where_they_look_from(model, tmp_path):
+    """Issue 26.6: the PBR sheet's legend showed parts-mode swatches; views are labelled with the
+    side their camera looks from."""
+    from procedura_brep.render.api import legend_of
+    from procedura_brep.render.views import caption
+    parts = dict(legend_of(model))
+    pbr = legend_of(model, "pbr")
+    for label, rgb in pbr:
+        name = label.split(" (")[0]
+        m = model.material_of(model.part(name))
+        assert label == f"{name} ({m.name})" and rgb == tuple(round(255 * c) for c in m.rgb)
+        assert rgb != parts[name]
+    assert caption("front") == "front (from -Y, ortho)"

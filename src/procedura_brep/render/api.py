@@ -176,8 +176,16 @@ def render_images(model: CompiledModel, views: str | list[str] | None = None, *,
     return out
 
 
-def legend_of(model: CompiledModel) -> list[tuple[str, RGB]]:
-    """(part name, colour) for every part, in model order."""
+def legend_of(model: CompiledModel, mode: Mode = "parts") -> list[tuple[str, RGB]]:
+    """(label, colour) for every part, in model order, as the ``mode``'s images show it: the
+    part's palette colour (``parts``), or ``part (material)`` with the material's base colour
+    (``pbr``)."""
+    if mode == "pbr":
+        out = []
+        for p in model.parts:
+            m = scene.material_of(model, p)
+            out.append((f"{p.name} ({m.name})", tuple(round(255 * c) for c in m.rgb)))
+        return out  # type: ignore[return-value]  # three channels from rgb
     colors = part_colors([p.name for p in model.parts])
     return [(p.name, colors[p.name]) for p in model.parts]
 
@@ -280,11 +288,14 @@ def render_to_dir(model: CompiledModel, out_dir: str | Path, *, views: str | lis
             else:
                 imgs = [(v, images[v] if v in images else Image.open(out / files[v]).convert("RGB"))
                         for v in vnames]
-                legend = legend_of(model)
+                # the legend the sheet's own colours need: none for clay (one grey for all)
+                legend = legend_of(model, mode) if mode != "clay" else []
                 if focus is not None:
-                    legend = [(n, c) for n, c in legend if n in resolve_focus(model, focus).parts]
+                    shown = resolve_focus(model, focus).parts
+                    legend = [(n, c) for n, c in legend if n.split(" (")[0] in shown]
                 title = f"{model.name}  mode={mode}" + (f"  close-up: {focus}" if focus else "")
-                compose.contact_sheet(imgs, title=title, legend=legend).save(out / sheet_file)
+                heading = "legend (material base colours)" if mode == "pbr" else "legend (part colours)"
+                compose.contact_sheet(imgs, title=title, legend=legend, heading=heading).save(out / sheet_file)
                 man.images[sheet_file] = {"key": skey, "geometry": geo, "mode": mode, "size": size,
                                           "focus": focus}
                 res.rendered.append(sheet_label)

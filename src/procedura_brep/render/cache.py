@@ -22,7 +22,7 @@ import numpy as np
 from ..program.model import CompiledModel
 from .palette import part_colors
 
-RENDER_VERSION: int = 3
+RENDER_VERSION: int = 4
 """Bump when shaders, lights or layout change, so cached images are redrawn."""
 MANIFEST: str = "renders.json"
 

@@ -12,7 +12,7 @@ from PIL import Image, ImageDraw, ImageFont
 
 from .gl import SUPERSAMPLE, Frame, Mode
 from .palette import RGB
-from .views import Camera
+from .views import Camera, caption
 
 BACKGROUND: dict[str, RGB] = {"parts": (246, 246, 246), "clay": (214, 214, 218), "pbr": (236, 237, 240)}
 """Flat background colour per mode (neutral grey, never a palette colour)."""
@@ -101,7 +101,8 @@ def draw_frames(image: Image.Image, camera: Camera, frames: list[tuple[str, np.n
                       stroke_width=1, stroke_fill=(255, 255, 255))
 
 
-def legend_image(legend: list[tuple[str, RGB]], *, height: int, swatch: int = 14) -> Image.Image:
+def legend_image(legend: list[tuple[str, RGB]], *, height: int, swatch: int = 14,
+                 heading: str = "legend (part colours)") -> Image.Image:
     """A white column listing every part: a colour swatch and the name, wrapping into columns."""
     font = ImageFont.load_default()
     row = swatch + 6
@@ -110,7 +111,7 @@ def legend_image(legend: list[tuple[str, RGB]], *, height: int, swatch: int = 14
     col_w = swatch + 12 + max([int(font.getlength(n)) for n, _ in legend] + [60])
     img = Image.new("RGB", (ncols * col_w + 16, height), (255, 255, 255))
     draw = ImageDraw.Draw(img)
-    draw.text((8, 8), "legend (part colours)", fill=(0, 0, 0), font=font)
+    draw.text((8, 8), heading, fill=(0, 0, 0), font=font)
     for i, (name, rgb) in enumerate(legend):
         x = 8 + (i // per_col) * col_w
         y = 28 + (i % per_col) * row
@@ -120,7 +121,8 @@ def legend_image(legend: list[tuple[str, RGB]], *, height: int, swatch: int = 14
 
 
 def contact_sheet(images: list[tuple[str, Image.Image]], *, title: str,
-                  legend: list[tuple[str, RGB]] | None) -> Image.Image:
+                  legend: list[tuple[str, RGB]] | None,
+                  heading: str = "legend (part colours)") -> Image.Image:
     """A grid of labelled views (ceil(sqrt(n)) columns) plus the legend on the right."""
     font = ImageFont.load_default()
     n = len(images)
@@ -130,14 +132,14 @@ def contact_sheet(images: list[tuple[str, Image.Image]], *, title: str,
     label_h, pad, head = 16, 6, 24
     grid_w = cols * (tile + pad) + pad
     grid_h = head + rows * (tile + label_h + pad) + pad
-    leg = legend_image(legend, height=grid_h) if legend else None
+    leg = legend_image(legend, height=grid_h, heading=heading) if legend else None
     sheet = Image.new("RGB", (grid_w + (leg.size[0] if leg else 0), grid_h), (255, 255, 255))
     draw = ImageDraw.Draw(sheet)
     draw.text((pad, 6), title, fill=(0, 0, 0), font=font)
     for i, (name, img) in enumerate(images):
         x = pad + (i % cols) * (tile + pad)
         y = head + (i // cols) * (tile + label_h + pad)
-        draw.text((x + 2, y + 2), name, fill=(0, 0, 0), font=font)
+        draw.text((x + 2, y + 2), caption(name), fill=(0, 0, 0), font=font)  # "front (from -Y, ortho)"
         sheet.paste(img, (x, y + label_h))
         draw.rectangle([x - 1, y + label_h - 1, x + tile, y + label_h + tile], outline=(180, 180, 180))
     if leg is not None:
