@@ -481,3 +481,12 @@ def test_mistyped_names_get_a_did_you_mean(tmp_path):
     (out / "program.py").write_text(lamp)
     with pytest.raises(ReviseError, match=r"--part pots: not a part \(did you mean 'post'\?\)"):
         revise(out, "taller", model="scripted:", parts=["pots"])
+
+
+def test_edit_with_build_says_what_it_rebuilt(tmp_path):
+    """Issue 26.4: `edit --build` printed no "built" line."""
+    prog = tmp_path / "lamp.py"
+    prog.write_text((Path(__file__).parent / "program" / "lamp.py").read_text())
+    res = CliRunner().invoke(app, ["edit", str(prog), "--set", "post_h=90", "--build", str(tmp_path / "run"), "-q"])
+    assert res.exit_code == 0, res.output
+    assert "set post_h=90" in res.output and "built 3 parts, 2 mates ->" in res.output and "status ok" in res.output

@@ -344,6 +344,10 @@ def edit(
     from .text import terminal_safe
     typer.echo(f"set {edits} -> {target}" + (f" (with a problem: {terminal_safe(problem)})"
                                               if problem else ""))
+    if build_dir is not None and res.model is not None:  # what it rebuilt
+        t = res.report.get("timings", {}).get("total_s", 0.0)
+        typer.echo(f"built {len(res.model.parts)} parts, {len(res.model.mates)} mates -> {build_dir} "
+                   f"({t:.1f} s, status {res.status})")
     raise typer.Exit(EXIT_FAIL if problem else EXIT_OK)
 
 
@@ -513,6 +517,8 @@ def generate(
         raise InputError(f"cannot read input {image}: {(exc.strerror or str(exc)).lower()}") from None
     fmts = _formats(formats)
     _output_dir(out)
+    import time
+    started = time.perf_counter()
     try:
         with _progress(quiet) as progress:
             if one_shot:
@@ -544,12 +550,21 @@ def generate(
     if json_out and (out / "report.json").is_file():
         typer.echo((out / "report.json").read_text(encoding="utf-8"), nl=False)
     usage = _usage(out)
+    took = time.perf_counter() - started
     if status == "ok":
         if not json_out:
-            typer.echo(f"generated and built in {calls} call(s) -> {out}{usage}")
+            typer.echo(f"generated and built in {calls} call(s), {took:.0f} s{usage}: status ok -> {out} "
+                       f"({_outputs(out)})")
         raise typer.Exit(exit_code(status))
-    _err(f"generate {status} after {calls} call(s): {message} (work kept in {out})")
+    _err(f"generate {status} after {calls} call(s), {took:.0f} s: {message} (work kept in {out}: "
+         f"{_outputs(out)})")
     raise typer.Exit(exit_code(status))
+
+
+def _outputs(out: Path) -> str:
+    """The run directory's main files that exist: what a person opens first."""
+    names = ("program.py", "report.json", "model.step", "model.glb", "model.usda", "model.xml")
+    return ", ".join(n for n in names if (out / n).is_file()) or "no files yet"
 
 
 def _usage(out: Path) -> str:

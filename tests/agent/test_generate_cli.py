@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -44,7 +45,10 @@ def test_the_model_comes_from_the_environment(tmp_path):
     out = tmp_path / "lamp"
     env = {"PROCEDURA_BREP_MODEL": f"replay:{TAPES / 'lamp_staged.jsonl'}"}
     res = invoke("generate", "-o", str(out), "--no-simulate", "-q", env=env)
-    assert res.exit_code == 0, res.output and "generated and built" in res.output
+    assert res.exit_code == 0, res.output
+    # the last line: calls, wall time, status, the run dir and its main files (issue 26.3)
+    assert re.search(r"generated and built in \d+ call\(s\), \d+ s[^:]*: status ok -> \S+ "
+                     r"\(program\.py, report\.json, model\.step, model\.glb", res.output), res.output
 
 
 def test_revise_through_the_cli(tmp_path):
