@@ -130,7 +130,7 @@ def test_sigint_stops_a_build_at_every_stage(tmp_path, when, until, delay_s, sta
     assert finding["code"] == "interrupted"
     assert finding["message"].endswith(stage), finding
     # no build existed before: the new program and its report, nothing partial
-    assert sorted(p.name for p in out.iterdir()) == ["program.py", "report.json"]
+    assert sorted(p.name for p in out.iterdir()) == ["program.py", "report.json", "summary.md"]
 
 
 @pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
@@ -145,7 +145,7 @@ def test_sigint_over_a_good_build_keeps_it(tmp_path):
     after = {p.relative_to(out): p.read_bytes() for p in out.rglob("*") if p.is_file()}
     assert set(after) == set(before)  # no rover file, no staging folder
     changed = [str(k) for k in before if before[k] != after[k]]
-    assert changed == ["report.json"]
+    assert changed == ["report.json", "summary.md"]
     report = json.loads((out / "report.json").read_text())
     assert report["status"] == "interrupted" and report["kept_previous"] is True
     assert report["previous"]["status"] == "ok" and report["previous"]["program"] == "lamp"

@@ -39,7 +39,7 @@ def test_failed_rebuild_keeps_the_last_good_build(good):
     assert res.status == "failed" and "part arm" in res.reason
     after = _files(good)
     assert set(after) == set(before)  # no staging folder, nothing added or removed
-    assert [k for k in before if before[k] != after[k]] == ["report.json"]
+    assert [k for k in before if before[k] != after[k]] == ["report.json", "summary.md"]
     assert (good / "program.py").read_text() == LAMP.read_text()  # matches the models
     rep = _report(good)
     assert rep["status"] == "failed" and rep["kept_previous"] is True
@@ -59,7 +59,7 @@ def test_failed_first_build_leaves_the_program_and_no_stale_models(tmp_path, wor
     (out / "report.json").write_text(json.dumps({"status": "failed"}))
     res = build(LAMP, out, source=BROKEN)
     assert res.status == "failed"
-    assert sorted(_files(out)) == ["program.py", "report.json"]
+    assert sorted(_files(out)) == ["program.py", "report.json", "summary.md"]
     assert (out / "program.py").read_text() == BROKEN
     assert _report(out)["status"] == "failed" and "kept_previous" not in _report(out)
 
@@ -82,8 +82,8 @@ def test_gates_failed_build_exports_nothing_and_keeps_the_old_one(good):
     assert res.status == "gates_failed" and res.exit_code == 1
     assert "post is not seated on base" in res.reason  # the failing gate, not "gates_failed"
     assert (good / "program.py").read_text() == LAMP.read_text()  # the kept build's program
-    assert {k: v for k, v in _files(good).items() if k != "report.json"} == \
-        {k: v for k, v in before.items() if k != "report.json"}
+    assert {k: v for k, v in _files(good).items() if k not in ("report.json", "summary.md")} == \
+        {k: v for k, v in before.items() if k not in ("report.json", "summary.md")}
     rep = _report(good)
     assert rep["status"] == "gates_failed" and rep["kept_previous"] is True
     assert rep["findings"][0]["mate"] == "post_foot" and not rep["gates"]["passed"]
@@ -94,7 +94,7 @@ def test_gates_failed_first_build_writes_only_program_and_report(tmp_path, worke
     out = tmp_path / "run"
     res = build(LAMP, out, source=LIFTED, formats=("step",))
     assert res.status == "gates_failed"
-    assert sorted(_files(out)) == ["program.py", "report.json"]
+    assert sorted(_files(out)) == ["program.py", "report.json", "summary.md"]
     assert (out / "program.py").read_text() == LIFTED
 
 
@@ -133,8 +133,8 @@ def test_our_bug_writes_a_report_and_keeps_the_good_build(good, monkeypatch):
     rep = _report(good)
     assert rep["status"] == "failed" and rep["kept_previous"] is True
     assert "exporter bug" in rep["findings"][-1]["message"] and rep["findings"][-1]["code"] == "internal"
-    assert {k: v for k, v in _files(good).items() if k != "report.json"} == \
-        {k: v for k, v in before.items() if k != "report.json"}
+    assert {k: v for k, v in _files(good).items() if k not in ("report.json", "summary.md")} == \
+        {k: v for k, v in before.items() if k not in ("report.json", "summary.md")}
 
 
 def test_keyboard_interrupt_in_process_writes_interrupted(good, monkeypatch):
@@ -196,4 +196,4 @@ def test_a_blow_up_after_the_compile_is_one_line_and_a_report(tmp_path, worker, 
             if plant == "memory" else "wall-clock limit (0.2 s" in errors[0]), errors[0]
     rep = _report(out)
     assert rep["status"] == "failed" and rep["findings"][-1]["code"] == kind
-    assert sorted(_files(out)) == ["program.py", "report.json"]
+    assert sorted(_files(out)) == ["program.py", "report.json", "summary.md"]

@@ -102,6 +102,13 @@ def _gates(model: Any, source: str) -> dict[str, Any]:
     return _GATED[key]
 
 
+def _blocking(data: dict[str, Any]) -> list[Any]:
+    """The findings of a check report that fail it (the one policy, ``findings.blocking``)."""
+    from .findings import blocking
+    from .program.trust import finding_from_json
+    return blocking([finding_from_json(f, f"findings[{i}]") for i, f in enumerate(data.get("findings", []))])
+
+
 def _findings(data: dict[str, Any]) -> list[dict[str, Any]]:
     return [{k: v for k, v in f.items() if v is not None} for f in data.get("findings", [])]
 
@@ -131,9 +138,9 @@ def build_server() -> Any:
     def check(program: str, name: str = "model", time_limit_s: float | None = None) -> CallToolResult:
         model = _compile(program, name, time_limit_s)
         data = _gates(model, program)
-        errors = [f for f in _findings(data) if f.get("severity") == "error"]
+        errors = _blocking(data)
         text = ("all gates pass" if data["passed"] else
-                f"{len(errors)} error(s); first: {errors[0].get('message', '') if errors else '?'}")
+                f"{len(errors)} error(s); first: {errors[0].message if errors else '?'}")
         return _result(text, {"ok": True, "passed": data["passed"], "findings": _findings(data),
                               "mates": data.get("mates", {}), "parts": list(data.get("triangles_per_part", {}))})
 

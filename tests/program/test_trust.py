@@ -153,5 +153,5 @@ def test_cli_build_with_a_crafted_child_is_exit_2_with_a_report(tmp_path, good, 
     assert "Traceback" not in res.output and "internal error" not in res.output
     report = json.loads((out / "report.json").read_text())
     assert report["findings"][0]["code"] == "bad-result"
-    assert sorted(p.name for p in out.iterdir()) == ["program.py", "report.json"]
+    assert sorted(p.name for p in out.iterdir()) == ["program.py", "report.json", "summary.md"]
     assert not (tmp_path / "x").exists() and not list(tmp_path.glob("**/x.*"))

@@ -44,7 +44,7 @@ def test_the_overlapped_export_writes_the_serial_files_byte_for_byte(tmp_path, w
         runs[on] = out
     a, b = _files(runs[True]), _files(runs[False])
     assert set(a) == set(b) and len(a) > 8, sorted(a)
-    assert [k for k in a if a[k] != b[k]] == ["report.json"]
+    assert [k for k in a if a[k] != b[k]] == ["report.json", "summary.md"]
     assert not [p for p in runs[True].rglob("*") if p.name.startswith(".")]
     timings = _report(runs[True])["timings"]
     assert {"tessellate_s", "export_wait_s", "export_step_s", "gates_s"} <= set(timings)
@@ -78,7 +78,7 @@ def test_a_model_that_fails_its_gates_ships_nothing_the_export_wrote_ahead(tmp_p
     out = tmp_path / "run"
     res = build(LAMP, out, source=LIFTED)
     assert res.status == "gates_failed"
-    assert sorted(_files(out)) == ["program.py", "report.json"]
+    assert sorted(_files(out)) == ["program.py", "report.json", "summary.md"]
     assert not any(out.rglob(".export-overlap")) and not any(tmp_path.rglob(".export-overlap"))
     assert mark.exists() and mark.read_text().endswith(overlap.FOLDER)
     assert not any(k.startswith("export_") for k in _report(out)["timings"])
@@ -99,7 +99,7 @@ def test_an_error_of_ours_in_the_export_is_a_finding_either_way(tmp_path, worker
     rep = _report(out)
     assert rep["findings"][-1]["message"] == "the mates form a loop: post -> arm -> post"
     assert rep["findings"][-1]["code"] == "export"
-    assert sorted(_files(out)) == ["program.py", "report.json"]
+    assert sorted(_files(out)) == ["program.py", "report.json", "summary.md"]
 
 
 def test_our_bug_in_the_export_is_an_internal_error_either_way(tmp_path, worker, monkeypatch, mode):
@@ -125,7 +125,7 @@ def test_a_killed_export_child_is_a_finding_not_an_internal_error(tmp_path, work
     rep = _report(out)
     assert rep["findings"][-1]["code"] == "parent-killed", rep["findings"][-1]
     assert "the export stage was killed by SIGKILL" in rep["findings"][-1]["message"]
-    assert sorted(_files(out)) == ["program.py", "report.json"]
+    assert sorted(_files(out)) == ["program.py", "report.json", "summary.md"]
 
 
 

@@ -149,8 +149,8 @@ def test_cli_keep_failed_exports_a_model_that_fails_its_gates(tmp_path, worker):
     from procedura_brep.cli import app
     lifted = tmp_path / "lifted.py"
     lifted.write_text(LIFTED)
-    for flag, files in (([], ["program.py", "report.json"]),
-                        (["--keep-failed"], ["mates.json", "model.step", "program.py", "report.json"])):
+    for flag, files in (([], ["program.py", "report.json", "summary.md"]),
+                        (["--keep-failed"], ["mates.json", "model.step", "program.py", "report.json", "summary.md"])):
         out = tmp_path / f"o{len(flag)}"
         res = CliRunner().invoke(app, ["build", str(lifted), "-o", str(out), "--formats", "step", "-q", *flag])
         assert res.exit_code == 1 and "post is not seated on base" in res.stderr, res.output

@@ -217,3 +217,5 @@ def _log_revision(out_dir: Path, report: dict[str, Any]) -> None:
         rep = json.loads(rep_path.read_text(encoding="utf-8"))
         rep["revisions"] = [json.loads(x) for x in (old + json.dumps(report) + "\n").splitlines() if x.strip()]
         write_atomic(rep_path, json.dumps(rep, indent=2, ensure_ascii=False) + "\n")
+        from ..run.report import write_summary
+        write_summary(out_dir, rep)

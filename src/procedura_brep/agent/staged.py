@@ -608,6 +608,8 @@ class StagedRun:
         if result.message:
             report["reason"] = result.message
         write_atomic(path, json.dumps(report, indent=2, ensure_ascii=False, default=str) + "\n")
+        from ..run.report import write_summary
+        write_summary(self.out_dir, report)  # with the prompt and the staged run's status
 
 
 def _plain(report: dict[str, Any]) -> dict[str, Any]:

@@ -29,7 +29,7 @@ from ..paths import program_name
 from ..program.model import CompiledModel
 from . import steps
 from .directory import Staging
-from .report import describe, reason, run_report
+from .report import describe, reason, run_report, write_summary
 from .status import Status, exit_code
 from .steps import dump_json
 
@@ -180,6 +180,7 @@ class _Run:
         self.staging.write("report.json", dump_json(report))
         self.staging.commit()
         out = self.result.out_dir
+        write_summary(out, report)
         self.result.files = {rel: out / rel for rel in self.result.files}
         self.result.files.update(program=out / "program.py", mates=out / "mates.json",
                                  report=out / "report.json")
@@ -200,6 +201,7 @@ class _Run:
         report = self.staging.finish_failed(self.report(status, complete=False), dump_json)
         self.result.report = report
         out = self.result.out_dir
+        write_summary(out, report)
         self.result.files = {"report": out / "report.json"}
         if not report.get("kept_previous"):
             self.result.files["program"] = out / "program.py"

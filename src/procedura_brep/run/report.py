@@ -76,3 +76,72 @@ def reason(status: Status | str, findings: list[Finding]) -> str:
 
 
 __all__ = ["describe", "reason", "run_report"]
+
+
+#: What each file of a run directory is, for the summary's list (docs/run_layer.md has them all).
+OUTPUT_NOTES: tuple[tuple[str, str], ...] = (
+    ("program.py", "the editable program (open it, edit a param, build again)"),
+    ("report.json", "everything below, machine-readable"),
+    ("mates.json", "the mates, their frames and the articulation evidence"),
+    ("model.step", "STEP with named, coloured parts (FreeCAD, any CAD suite)"),
+    ("model.obj", "OBJ + model.mtl"),
+    ("model.glb", "glTF binary with PBR materials"),
+    ("model.usda", "OpenUSD with a physics articulation"),
+    ("model.xml", "MJCF for MuJoCo"),
+    ("urdf", "URDF (two profiles) and its meshes"),
+    ("renders/sim", "frames of a failed battery check"),
+    ("state.json", "a staged run's state: what --resume continues from"),
+    ("reference.png", "the reference picture of a staged run (reference.json says where from)"),
+    ("transcript.jsonl", "every model call of a staged run or revise (replayable)"),
+    ("history", "the program after each commit and edit"),
+)
+
+
+def summary_md(report: Mapping[str, Any], out_dir: Any) -> str:
+    """``summary.md``: what a person reads first in a run directory, from its report: the
+    status, what was asked (a staged run's prompt), the parts, the mates, the findings, the
+    battery's verdicts, the timings and every output that is there."""
+    from pathlib import Path
+    out = Path(out_dir)
+    name = report.get("program") or out.name
+    rows = [f"# {name}: {report.get('status', '?')}", ""]
+    if report.get("prompt"):
+        rows += [f"Asked: {report['prompt']}", ""]
+    if report.get("kept_previous"):
+        rows += ["This build failed; the files are the previous complete build's.", ""]
+    parts = report.get("parts") or []
+    rows += [f"## Parts ({len(parts)})", ""]
+    if parts:
+        rows += ["| part | material | volume (mm^3) |", "|---|---|---|"]
+        rows += [f"| {p.get('name')} | {p.get('material')} | {float(p.get('volume_mm3') or 0):.4g} |" for p in parts]
+    mates = report.get("mates") or []
+    rows += ["", f"## Mates ({len(mates)})", ""]
+    if mates:
+        rows += ["| mate | type | child | parent |", "|---|---|---|---|"]
+        rows += [f"| {m.get('name')} | {m.get('type')} | {m.get('child')} | {m.get('parent')} |" for m in mates]
+    findings = report.get("findings") or []
+    rows += ["", "## Findings", ""]
+    rows += [f"- [{f.get('severity', 'error')}] {f.get('code')}: {f.get('message')}" for f in findings] or ["none"]
+    battery = report.get("battery") or {}
+    if battery.get("checks"):
+        rows += ["", "## Battery", "", "| check | name | verdict | message |", "|---|---|---|---|"]
+        rows += [f"| {c.get('id')} | {c.get('name')} | {c.get('status')} | {c.get('message', '')} |"
+                 for c in battery["checks"]]
+    there = [(f, note) for f, note in OUTPUT_NOTES if (out / f).exists()]
+    rows += ["", "## Files", ""] + [f"- `{f}`: {note}" for f, note in there]
+    timings = report.get("timings") or {}
+    keys = [k for k in ("compile_s", "gates_s", "export_s", "evidence_s", "battery_s", "total_s") if k in timings]
+    rows += ["", "## Timings", ""] + [f"- {k[:-2]}: {float(timings[k]):.2f} s" for k in keys]
+    return "\n".join(rows) + "\n"
+
+
+def write_summary(out_dir: Any, report: Mapping[str, Any]) -> None:
+    """Write ``summary.md`` for ``report`` into the run directory (a best effort: a summary
+    that cannot be written never fails the build whose report it repeats)."""
+    from pathlib import Path
+
+    from ..paths import write_atomic
+    try:
+        write_atomic(Path(out_dir) / "summary.md", summary_md(report, out_dir))
+    except OSError:
+        pass
