@@ -129,14 +129,20 @@ class _RestrictedBench(RefineBench):
 def _write_back(host: Any, source: str) -> str:
     """``source`` (an edit the session is about to apply: it passed its gates) as the run
     directory's program.py and state.json source."""
-    write_atomic(host.out_dir / "program.py", source)
+    _save(host.out_dir, source, host.step)
     host.applied += 1
-    rd = RunDir(host.out_dir)
-    if rd.state_path.is_file():
-        state = rd.load()
-        state.source, state.step = source, host.step
-        rd.save(state)
     return source
+
+
+def _save(out_dir: Path, source: str, step: int) -> None:
+    """program.py, and a staged run's state.json (its source and next model-call step)."""
+    rd = RunDir(out_dir)
+    if not rd.state_path.is_file():
+        write_atomic(out_dir / "program.py", source)
+        return
+    state = rd.load()
+    state.source, state.step = source, step
+    rd.save(state)  # program.py first, then state.json
 
 
 def revise(out_dir: Path, instruction: str, *, model: str, base_url: str | None = None,
@@ -199,8 +205,8 @@ def revise(out_dir: Path, instruction: str, *, model: str, base_url: str | None 
     report = {"instruction": instruction, "parts": parts or [], **report, "changed": new != source,
               "calls": host.calls}
     result = ReviseResult("ok" if report["verdict"] == "ok" else str(report["verdict"]), out_dir, new, report)
-    if new != source:
-        write_atomic(prog, new)
+    if new != source:  # the edits are on disk already; state.json learns the last call's step
+        _save(out_dir, new, host.step)
         result.build = host.tools.final_build(new, out_dir, simulate=simulate)
         if not result.build.ok and result.status == "ok":
             result.status = "gates_failed"
