@@ -26,9 +26,10 @@ from __future__ import annotations
 import json
 import os.path
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from ..llm import Image, Message, Request, Settings
+from ..program.splice import SpliceError, parse_reply
 from .plan import Plan, PlannedPart
 
 
@@ -45,35 +46,25 @@ class CommittedPart:
 BODY_CUT = "    ...  # body of {n} lines, cut here; shown whole to the parts that mate to it"
 
 
-def _split_body(text: str) -> tuple[str, str, str] | None:
-    """``(before, body code, after)`` of a committed part's five fenced blocks, or None."""
-    head = text.find("## body")
-    if head < 0:
-        return None
-    start = text.find("```python\n", head)
-    end = text.find("\n```", start + 10) if start >= 0 else -1
-    if start < 0 or end < 0:
-        return None
-    return text[:start + 10], text[start + 10:end], text[end:]
-
-
 def abbreviate(text: str) -> str:
     """A committed part's blocks with its body cut to the decorator and ``def`` line."""
-    split = _split_body(text)
-    if split is None:
+    try:
+        reply = parse_reply(text)
+    except SpliceError:
         return text
-    before, code, after = split
-    lines = code.splitlines()
+    lines = reply.body.strip("\n").split("\n")
     k = next((i for i, ln in enumerate(lines) if ln.lstrip().startswith("def ")), None)
     if k is None or len(lines) - k - 1 <= 1:
         return text
-    return before + "\n".join(lines[:k + 1] + [BODY_CUT.format(n=len(lines) - k - 1)]) + after
+    return replace(reply, body="\n".join(lines[:k + 1] + [BODY_CUT.format(n=len(lines) - k - 1)])).text()
 
 
 def body_of(text: str) -> str:
     """The body block's code of a committed part (its whole ``@part`` function)."""
-    split = _split_body(text)
-    return split[1] if split else ""
+    try:
+        return parse_reply(text).body
+    except SpliceError:
+        return ""
 
 
 def program_log(header: str, committed: Sequence[CommittedPart]) -> str:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import ast
 import re
+from collections.abc import Mapping
 from collections.abc import Set as AbstractSet
 from dataclasses import dataclass, field
 from typing import TypeGuard, cast
@@ -64,6 +65,16 @@ class PartReply:
         text: str = getattr(self, name)
         return text
 
+    def text(self) -> str:
+        """The five blocks as a reply: a heading and one fenced python block each (``# none``
+        for an empty one), the form :func:`parse_reply` reads back."""
+        return reply_text({b: self.block(b) for b in BLOCKS})
+
+
+def reply_text(blocks: Mapping[str, str]) -> str:
+    """Five blocks (name -> code) as a reply, in order, ``# none`` for a missing or empty one."""
+    return "\n".join(f"## {b}\n```python\n{blocks.get(b, '').strip() or '# none'}\n```" for b in BLOCKS)
+
 
 @dataclass
 class SpliceResult:
@@ -91,8 +102,7 @@ class SpliceResult:
 
     def as_reply(self) -> str:
         """The inserted blocks as a five-block reply (how the part now reads in the program)."""
-        return "\n".join(f"## {b}\n```python\n{self.inserted.get(b, '').strip() or '# none'}\n```"
-                         for b in BLOCKS)
+        return reply_text(self.inserted)
 
     def reply_line(self, program_line: int) -> tuple[str, int] | None:
         """Where a program line came from in the reply (None: it was already in the program)."""
