@@ -36,6 +36,12 @@ log = logging.getLogger(__name__)
 PAIR_VIEWS: tuple[str, ...] = ("iso_se", "iso_nw")
 
 
+def pair_finding(findings: list[Finding]) -> Finding | None:
+    """The first finding between two parts (an interference, a gouge): the one whose close-up
+    (``render --close-up part+other``) a retry, the fixer and the critic are shown."""
+    return next((f for f in findings if f.part and f.other), None)
+
+
 def findings_text(findings: list[Finding], limit: int = 12,
                   where: Callable[[int], str] | None = None) -> str:
     """Findings as model feedback: one ``- message (line N)`` row each, capped; ``where``
@@ -315,7 +321,7 @@ class RefineBench:
         report = check_model(model, source)
         errs = tuple(f.message for f in blocking(report.findings))
         floaters = tuple(f.message for f in report.gate("connectivity").findings if f.code == "floater")
-        pair = next((f for f in blocking(report.findings) if f.part and f.other), None)
+        pair = pair_finding(blocking(report.findings))
         self._pairs = {source: (f"{pair.part}+{pair.other}", pair.message) if pair else None}
         self._outcomes = {source: CompileOutcome(not errs, errs, floaters)}
         return self._outcomes[source]

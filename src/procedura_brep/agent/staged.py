@@ -38,7 +38,7 @@ from .materials import materials_stage
 from .plan import Plan, PlanError, PlannedMate, PlannedPart, parse_plan
 from .prompts import reference, template
 from .reference import Reference
-from .refine import PAIR_VIEWS, findings_text, refine
+from .refine import PAIR_VIEWS, findings_text, pair_finding, refine
 from .review import enforce_review
 from .runstate import RunDir, RunState
 from .stages import STAGES, next_stage
@@ -343,7 +343,7 @@ class StagedRun:
         note = (f"\n\nRenders of this attempt ({captions(RETRY_VIEWS)}), with {name}'s own "
                 f"origin ('{name} origin') and every frame it publishes drawn as axes at their "
                 f"assembly poses: X red, Y green, Z blue.")
-        pair = next((f for f in verdict.errors if f.part and f.other), None)
+        pair = pair_finding(verdict.errors)
         if pair is not None:  # the worst pair finding: the two in colour where they meet
             focus = f"{pair.part}+{pair.other}"
             close, _ = self.tools.render(verdict.model, list(PAIR_VIEWS), close_up=focus)
