@@ -153,6 +153,18 @@ class Worker:
             self._ready = True
         return self._proc
 
+    def wait_ready(self) -> None:
+        """Start the worker and wait until it has imported build123d (a warm server's start)."""
+        with self._lock:
+            self._ensure_ready()
+
+    def relay(self, req: dict[str, Any]) -> dict[str, Any]:
+        """One raw request to the zygote and its reply (a warm server forwarding a client's;
+        the client reads and validates the result itself). Raises :class:`CompileError` when
+        the worker died (it restarts on the next request)."""
+        with self._lock:
+            return self._ask(self._ensure_ready(), req)
+
     def close(self) -> None:
         if self._proc is not None and self._proc.poll() is None:
             self._proc.kill()

@@ -123,7 +123,7 @@ def serve(worker: Any, path: Path | None = None, *, ready: Any = None) -> None:
         if _alive(path):
             raise OSError(f"a server already answers at {path}")
         path.unlink()
-    worker._ensure_ready()  # warm before the first client: that is the point
+    worker.wait_ready()  # warm before the first client: that is the point
     srv = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     try:
         srv.bind(str(path))
@@ -167,8 +167,7 @@ def _client(conn: socket.socket, worker: Any) -> None:
                 _send(conn, {"digest": code_digest(), "cache_dir": worker.cache_dir, "pid": os.getpid()})
             elif op == "zygote" and isinstance(msg.get("req"), dict):
                 try:
-                    with worker._lock:
-                        reply = worker._ask(worker._ensure_ready(), msg["req"])
+                    reply = worker.relay(msg["req"])
                 except CompileError as exc:  # the zygote died: it restarts on the next request
                     reply = {"id": msg["req"].get("id"), "status": "error", "detail": str(exc)}
                 _send(conn, {"reply": reply})
