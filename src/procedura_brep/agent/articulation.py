@@ -80,7 +80,6 @@ class ArticulationStage:
         self.build: Any = None  # the run-directory build of the final program, when made here
         self.built_source: str | None = None
         self._gates: dict[str, set] = {}
-        self._n = 0
 
     # gating ----------------------------------------------------------------------------------
 

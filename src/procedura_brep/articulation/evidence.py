@@ -137,9 +137,10 @@ def mates_evidence(model: CompiledModel) -> dict[str, Any]:
     contacts = []
     for a, b in itertools.combinations(meshes, 2):
         mates = joined.get(frozenset((a, b)), [])
-        if not mates and not boxes_touch(boxes[a], boxes[b], TOL.contact_mm):
+        touch = boxes_touch(boxes[a], boxes[b], TOL.contact_mm)
+        if not mates and not touch:
             continue
-        face = contact_area(meshes[a], meshes[b]) if boxes_touch(boxes[a], boxes[b], TOL.contact_mm) else 0.0
+        face = contact_area(meshes[a], meshes[b]) if touch else 0.0
         bearing = sum(bearing_area(model, m) for m in mates)
         if max(face, bearing) > 0:
             contacts.append({"a": a, "b": b, "area_mm2": max(face, bearing), "face_mm2": face,
