@@ -43,6 +43,21 @@ def test_a_malformed_plan_lists_every_problem(lamp):
         parse_articulation("no plan here", lamp)
 
 
+# the reply states only what it changes: links, base and wheels are the tool's
+
+def test_a_reply_need_not_restate_links_base_or_wheels(lamp):
+    plan = parse_articulation('{"joints": [{"mate": "arm_pivot", "effort": 4}]}', lamp)
+    assert plan.base is None and plan.links is None and plan.wheels is None
+    assert plan.edits[0].options == {"effort": 4.0}
+    assert parse_articulation('{"joints": []}', lamp).edits == []
+
+
+def test_a_stated_base_is_still_checked(lamp):
+    assert parse_articulation('{"joints": [], "base": "welded"}', lamp).base == "welded"
+    with pytest.raises(ArticulationPlanError, match="base must be"):
+        parse_articulation('{"joints": [], "base": "bolted"}', lamp)
+
+
 def test_drives_must_agree_with_the_limits(lamp):
     with pytest.raises(ArticulationPlanError, match="velocity drive is for a continuous turn"):
         parse_articulation('{"joints": [{"mate": "arm_pivot", "drive": "velocity"}], "base": "welded"}', lamp)
