@@ -201,10 +201,12 @@ def _do_build(program: Path, out: Path, formats: tuple[str, ...], source: str | 
         n = len(res.model.parts) if res.model else 0
         t = res.report.get("timings", {}).get("total_s", 0.0)
         typer.echo(f"built {n} parts, {len(res.model.mates) if res.model else 0} mates -> {out} "
-                   f"({t:.1f} s)")
+                   f"({t:.1f} s, status {res.status}){_sheet(out)}")
         return EXIT_OK
     kept = " (the previous build in the directory is kept)" if res.report.get("kept_previous") else ""
     _report_errors(f"build failed: {res.reason}{kept}", res.errors)
+    t = res.report.get("timings", {}).get("total_s", 0.0)
+    typer.echo(f"status {res.status}, {t:.1f} s -> {out} (report.json, summary.md){_sheet(out)}", err=True)
     return res.exit_code
 
 
@@ -347,7 +349,7 @@ def edit(
     if build_dir is not None and res.model is not None:  # what it rebuilt
         t = res.report.get("timings", {}).get("total_s", 0.0)
         typer.echo(f"built {len(res.model.parts)} parts, {len(res.model.mates)} mates -> {build_dir} "
-                   f"({t:.1f} s, status {res.status})")
+                   f"({t:.1f} s, status {res.status}){_sheet(build_dir)}")
     raise typer.Exit(EXIT_FAIL if problem else EXIT_OK)
 
 
@@ -554,10 +556,10 @@ def generate(
     if status == "ok":
         if not json_out:
             typer.echo(f"generated and built in {calls} call(s), {took:.0f} s{usage}: status ok -> {out} "
-                       f"({_outputs(out)})")
+                       f"({_outputs(out)}){_sheet(out)}")
         raise typer.Exit(exit_code(status))
     _err(f"generate {status} after {calls} call(s), {took:.0f} s: {message} (work kept in {out}: "
-         f"{_outputs(out)})")
+         f"{_outputs(out)}){_sheet(out)}")
     raise typer.Exit(exit_code(status))
 
 
@@ -565,6 +567,11 @@ def _outputs(out: Path) -> str:
     """The run directory's main files that exist: what a person opens first."""
     names = ("program.py", "report.json", "model.step", "model.glb", "model.usda", "model.xml")
     return ", ".join(n for n in names if (out / n).is_file()) or "no files yet"
+
+
+def _sheet(out: Path) -> str:
+    """``; sheet OUT/sheet.png`` when the run directory has its picture (empty otherwise)."""
+    return f"; sheet {out / 'sheet.png'}" if (out / "sheet.png").is_file() else ""
 
 
 def _usage(out: Path) -> str:
@@ -596,6 +603,8 @@ def revise(
     quiet: QuietOption = False,
 ) -> None:
     """Apply a person's change request to a run directory through diagnosed, gated edits."""
+    import time
+    started = time.perf_counter()
 
     from .agent.revise import ReviseError
     from .agent.revise import revise as run
@@ -621,7 +630,8 @@ def revise(
         _json(res.report)
     if res.status == "ok":
         if not json_out:
-            typer.echo(f"revised {run_dir}: {res.report.get('edits', 0)} edit(s)")
+            typer.echo(f"revised {run_dir}: {res.report.get('edits', 0)} edit(s), "
+                       f"{time.perf_counter() - started:.0f} s, status ok{_sheet(run_dir)}")
         raise typer.Exit(exit_code(res.status))
     why = f": {res.report['reason']}" if res.report.get("reason") else ""
     _err(f"revise ended {res.status}{why} after {res.report.get('edits', 0)} edit(s) (see {run_dir}/history)")

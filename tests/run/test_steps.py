@@ -50,8 +50,8 @@ def test_a_gate_failure_exports_nothing_unless_asked(tmp_path, worker, export_fa
     assert out["gate_errors"] and out["sections"]["gates"]["passed"] is False
     assert out["exported"] is export_failed
     if export_failed:
-        assert sorted(out["files"]) == ["mates.json", "model.step"]
-        assert _tree(tmp_path) == ["mates.json", "model.step"]
+        assert sorted(out["files"]) == ["mates.json", "model.step", "sheet.png"]
+        assert _tree(tmp_path) == ["mates.json", "model.step", "sheet.png"]
     else:
         assert out["files"] == [] and _tree(tmp_path) == []
         assert not any(k.startswith("export") for k in out["timings"])
@@ -150,7 +150,8 @@ def test_cli_keep_failed_exports_a_model_that_fails_its_gates(tmp_path, worker):
     lifted = tmp_path / "lifted.py"
     lifted.write_text(LIFTED)
     for flag, files in (([], ["program.py", "report.json", "summary.md"]),
-                        (["--keep-failed"], ["mates.json", "model.step", "program.py", "report.json", "summary.md"])):
+                        (["--keep-failed"], ["mates.json", "model.step", "program.py", "report.json", "sheet.png",
+                                           "summary.md"])):
         out = tmp_path / f"o{len(flag)}"
         res = CliRunner().invoke(app, ["build", str(lifted), "-o", str(out), "--formats", "step", "-q", *flag])
         assert res.exit_code == 1 and "post is not seated on base" in res.stderr, res.output

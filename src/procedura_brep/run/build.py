@@ -259,6 +259,10 @@ def _build_into(run: _Run, source: str, name: str, fmts: tuple[str, ...], *, gat
     result.findings += [*gate_errors, *battery]
     status = (Status.GATES_FAILED if failed(gate_errors) else
               Status.BATTERY_FAILED if failed(battery) else Status.OK)
+    if out["exported"] and "sheet.png" not in out["files"]:  # this process holds the GL context
+        run.enter("sheet", "drawing sheet.png")
+        steps.sheet(model, staging.dir, timings=timings)
+        out["files"].append("sheet.png")
     run.enter("save", f"saving {result.out_dir}")
     if out["exported"]:
         result.files.update({rel: staging.dir / rel for rel in out["files"]})
@@ -318,6 +322,10 @@ def verify_and_export(model: CompiledModel, source: str, root: Path, fmts: tuple
     if exported:
         timings.update(bundle.timings)
         files = list(bundle.files)
+        if "sheet.png" not in files and not steps.gl_in_use():  # else the parent draws it
+            # (a forked child cannot use an inherited GL context); the overlapped export drew it
+            send({"stage": "sheet", "line": "drawing sheet.png"})
+            files.append(steps.sheet(model, root, timings=timings).name)
         if simulate:
             send({"stage": "battery", "line": "running the MuJoCo battery"})
             bv = steps.simulate(model, bundle)

@@ -16,7 +16,6 @@ render in-process, and the result says ``"isolated": False``.
 
 from __future__ import annotations
 
-import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn
@@ -25,6 +24,7 @@ from .. import errors
 from ..errors import OutputError, ProceduraError
 from ..limited import ChildFailure, Send, run_limited
 from ..program.model import CompiledModel
+from .steps import gl_in_use
 
 Progress = Callable[[str], None]
 #: ProceduraError classes whose message alone rebuilds them in the parent.
@@ -104,11 +104,6 @@ def export(model: CompiledModel, out: Path, *, formats: tuple[str, ...], step_sc
     return list(_limited(heavy, command="export", stage="export", progress=progress, out=out)["files"])
 
 
-def _gl_in_use() -> bool:
-    gl = sys.modules.get("procedura_brep.render.gl")
-    return getattr(gl, "_RENDERER", None) is not None
-
-
 def render(model: CompiledModel, out: Path, *, progress: Progress | None = None,
            **options: Any) -> dict[str, Any]:
     """``render.render_to_dir(model, out, **options).as_dict()`` in the child (plus
@@ -129,7 +124,7 @@ def render(model: CompiledModel, out: Path, *, progress: Progress | None = None,
 
     if progress is not None:
         progress("rendering")
-    if _gl_in_use():  # pragma: no cover - library callers only; the CLI never draws before
+    if gl_in_use():  # pragma: no cover - library callers only; the CLI never draws before
         return {**heavy(lambda msg: None), "isolated": False}
     return {**_limited(heavy, command="render", stage="render", progress=progress, out=out), "isolated": True}
 
@@ -148,8 +143,8 @@ def simulate(model: CompiledModel, target: Path, *, out: Path | None,
     def heavy(send: Send) -> dict[str, Any]:
         from ..sim import battery
         if target.is_dir():
-            return battery.run_bundle(model, target, frames=not _gl_in_use()).as_dict()
-        return battery.run_battery(model, out_dir=out, frames=not _gl_in_use()).as_dict()
+            return battery.run_bundle(model, target, frames=not gl_in_use()).as_dict()
+        return battery.run_battery(model, out_dir=out, frames=not gl_in_use()).as_dict()
 
     if progress is not None:
         progress("running the MuJoCo battery")

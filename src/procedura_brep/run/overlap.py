@@ -13,7 +13,8 @@ Both sides need every part's mesh, and tessellating is the longest serial step l
 writes the STEP file first (it needs no mesh); meanwhile the caller tessellates every part and
 hands the meshes over in one file (:data:`MESHES`, plain arrays, no pickle); the child adopts
 them (:func:`procedura_brep.program.model.adopt_mesh`) and writes the other formats, in the
-bundle's order (they share meshes and masses, which one process computes once).
+bundle's order (they share meshes and masses, which one process computes once), then draws
+``sheet.png`` (:func:`~.steps.sheet`) with the same meshes.
 ``mates.json`` and its articulation evidence, which share nothing with the formats, are written
 by the caller once its gates have passed, while the child finishes.
 
@@ -34,7 +35,7 @@ from typing import Any
 from ..errors import ProceduraError
 from ..limited import Limited
 from ..program.model import CompiledModel
-from .steps import Bundle, export_formats, export_mates
+from .steps import Bundle, export_formats, export_mates, gl_in_use, sheet
 
 #: The hidden folder, inside the staging folder, the overlapped export writes into (a name
 #: starting with "." is never swapped into the run directory).
@@ -88,7 +89,10 @@ class Overlapped:
             more, _ = export_formats(self.model, self.folder, rest, step_schema=self.step_schema,
                                      timings=timings)
             written.update(more)
-        return {"files": sorted(written), "timings": timings}
+        files = sorted(written)
+        if not gl_in_use():  # the sheet too, while the gates run (else the build's parent draws it)
+            files.append(sheet(self.model, self.folder, timings=timings).name)
+        return {"files": files, "timings": timings}
 
     def finish(self) -> Bundle:
         """Write ``mates.json`` here, wait for the child and move every file into ``root``; the

@@ -81,6 +81,7 @@ __all__ = ["describe", "reason", "run_report"]
 #: What each file of a run directory is, for the summary's list (docs/run_layer.md has them all).
 OUTPUT_NOTES: tuple[tuple[str, str], ...] = (
     ("program.py", "the editable program (open it, edit a param, build again)"),
+    ("sheet.png", "the model in PBR: six views and an iso, every part named on the legend"),
     ("report.json", "everything below, machine-readable"),
     ("mates.json", "the mates, their frames and the articulation evidence"),
     ("model.step", "STEP with named, coloured parts (FreeCAD, any CAD suite)"),
@@ -109,6 +110,8 @@ def summary_md(report: Mapping[str, Any], out_dir: Any) -> str:
         rows += [f"Asked: {report['prompt']}", ""]
     if report.get("kept_previous"):
         rows += ["This build failed; the files are the previous complete build's.", ""]
+    if (out / "sheet.png").exists():
+        rows += ["![the model: six views and an iso](sheet.png)", ""]
     parts = report.get("parts") or []
     rows += [f"## Parts ({len(parts)})", ""]
     if parts:
@@ -130,7 +133,8 @@ def summary_md(report: Mapping[str, Any], out_dir: Any) -> str:
     there = [(f, note) for f, note in OUTPUT_NOTES if (out / f).exists()]
     rows += ["", "## Files", ""] + [f"- `{f}`: {note}" for f, note in there]
     timings = report.get("timings") or {}
-    keys = [k for k in ("compile_s", "gates_s", "export_s", "evidence_s", "battery_s", "total_s") if k in timings]
+    keys = [k for k in ("compile_s", "gates_s", "export_s", "evidence_s", "sheet_s", "battery_s", "total_s")
+            if k in timings]
     rows += ["", "## Timings", ""] + [f"- {k[:-2]}: {float(timings[k]):.2f} s" for k in keys]
     return "\n".join(rows) + "\n"
 

@@ -216,6 +216,34 @@ def export_mates(model: CompiledModel, root: Path, *, evidence: bool,
     return write_atomic(root / "mates.json", dump_json(mates_json(model, ev)))
 
 
+#: The run directory's picture (``sheet.png``): PBR, the six orthographic views and an iso.
+SHEET_VIEWS: tuple[str, ...] = ("iso_se", "front", "back", "left", "right", "top", "bottom")
+#: Tile side of ``sheet.png`` in pixels.
+SHEET_SIZE = 384
+
+
+def sheet(model: CompiledModel, root: Path, *, timings: dict[str, float] | None = None) -> Path:
+    """Draw ``root/sheet.png``: the model in PBR from :data:`SHEET_VIEWS`, each view labelled
+    with where its camera stands, the legend naming every part and its material. Returns its
+    path; ``timings["sheet_s"]`` is the time it took.
+
+    Draws in this process: a caller that inherited a GL context from a forking parent (see
+    :func:`gl_in_use`) must draw it in that parent instead."""
+    import shutil
+    import tempfile
+
+    from ..render import render_to_dir
+    t = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix=".sheet-", dir=root) as tmp:
+        res = render_to_dir(model, tmp, views=list(SHEET_VIEWS), mode="pbr", size=SHEET_SIZE,
+                            sheet=True)
+        dest = root / "sheet.png"
+        shutil.move(str(res.paths["sheet"]), dest)
+    if timings is not None:
+        timings["sheet_s"] = time.perf_counter() - t
+    return dest
+
+
 @dataclass
 class BatteryVerdict(Verdict):
     """What the MuJoCo battery says about one model: ``report`` is the battery report
@@ -240,7 +268,7 @@ def simulate(model: CompiledModel, bundle: Bundle | Path | None = None, *,
     from ..sim.battery import failures, run_battery
     root = bundle.root if isinstance(bundle, Bundle) else bundle
     t = time.perf_counter()
-    draw = frames and not _gl_in_use()
+    draw = frames and not gl_in_use()
     art = bundle.art if isinstance(bundle, Bundle) else None
     report = run_battery(model, out_dir=root, frames=draw, exported=root is not None,
                          art=art).as_dict()
@@ -251,8 +279,8 @@ def simulate(model: CompiledModel, bundle: Bundle | Path | None = None, *,
     return BatteryVerdict(report, failures(report), time.perf_counter() - t)
 
 
-def _gl_in_use() -> bool:
-    """Whether this process inherited a GL context (its driver threads do not survive a fork,
+def gl_in_use() -> bool:
+    """Whether this process holds (or inherited) a GL context (its driver threads do not survive a fork,
     so the child must not draw battery frames with it)."""
     import sys
     gl = sys.modules.get("procedura_brep.render.gl")
@@ -265,5 +293,5 @@ def dump_json(obj: Any) -> str:
     return json.dumps(obj, indent=2, sort_keys=False, ensure_ascii=False, default=json_default) + "\n"
 
 
-__all__ = ["BatteryVerdict", "Bundle", "GateVerdict", "compile_model", "dump_json", "export",
-           "export_formats", "export_mates", "gate", "simulate"]
+__all__ = ["SHEET_VIEWS", "BatteryVerdict", "Bundle", "GateVerdict", "compile_model", "dump_json",
+           "export", "export_formats", "export_mates", "gate", "gl_in_use", "sheet", "simulate"]
