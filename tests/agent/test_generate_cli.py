@@ -44,11 +44,21 @@ def test_generate_without_a_model_or_output_is_a_usage_error(tmp_path):
 def test_the_model_comes_from_the_environment(tmp_path):
     out = tmp_path / "lamp"
     env = {"PROCEDURA_BREP_MODEL": f"replay:{TAPES / 'lamp_staged.jsonl'}"}
-    res = invoke("generate", "-o", str(out), "--no-simulate", "-q", env=env)
+    res = invoke("generate", "-o", str(out), "--no-simulate", env=env)
     assert res.exit_code == 0, res.output
-    # the last line: calls, wall time, status, the run dir and its main files (issue 26.3)
+    # the last line: calls, wall time, status, the run dir, its main files and its sheet (26.3)
     assert re.search(r"generated and built in \d+ call\(s\), \d+ s[^:]*: status ok -> \S+ "
-                     r"\(program\.py, report\.json, model\.step, model\.glb", res.output), res.output
+                     r"\(program\.py, report\.json, model\.step, model\.glb.*\); sheet \S+sheet\.png$",
+                     res.stdout.strip()), res.output
+    # no silent gap: the final build reports its own stages (issue 26.4: the run's last 17 s
+    # printed nothing before)
+    stages = [re.sub(r"^\s*[\d.]+ s  ", "", ln) for ln in res.stderr.splitlines()]
+    final = stages[stages.index("finish: building the run directory (exports, gates)"):]
+    assert [s for s in final if s.startswith("finish: ")][1:4] == [
+        f"finish: compiling {out.name}", "finish: running the gates",
+        "finish: writing 3 parts as " + ", ".join(__import__("procedura_brep.export.bundle",
+                                                              fromlist=["FORMATS"]).FORMATS)], final
+    assert "finish: drawing sheet.png" in final, final
 
 
 def test_revise_through_the_cli(tmp_path):

@@ -47,7 +47,7 @@ class _Tools(Tools):
         super().__init__()
         self.built: list[str] = []
 
-    def final_build(self, source, out_dir, *, simulate=True, formats=None):
+    def final_build(self, source, out_dir, *, simulate=True, formats=None, progress=None):
         self.built.append(source)
         failing = _failing(source)
         (out_dir / "f.png").write_bytes(PNG)

@@ -207,8 +207,9 @@ class ArticulationStage:
     def battery(self, source: str) -> list[dict[str, Any]]:
         """Build the run directory of ``source`` with the battery; the failed checks."""
         opts = self.host.options
-        self.build = self.host.tools.final_build(source, self.host.out_dir, simulate=True,
-                                                 formats=opts.formats)
+        self.build = self.host.tools.final_build(
+            source, self.host.out_dir, simulate=True, formats=opts.formats,
+            progress=lambda line: self.host.progress("articulation", f"battery build: {line}"))
         self.built_source = source
         bat = self.build.report.get("battery") or {}
         failed = [c for c in bat.get("checks", []) if not c.get("passed") and not c.get("skipped")]

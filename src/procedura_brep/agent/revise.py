@@ -207,7 +207,8 @@ def revise(out_dir: Path, instruction: str, *, model: str, base_url: str | None 
     result = ReviseResult("ok" if report["verdict"] == "ok" else str(report["verdict"]), out_dir, new, report)
     if new != source:  # the edits are on disk already; state.json learns the last call's step
         _save(out_dir, new, host.step)
-        result.build = host.tools.final_build(new, out_dir, simulate=simulate)
+        result.build = host.tools.final_build(new, out_dir, simulate=simulate,
+                                              progress=lambda line: progress("build", line))
         if not result.build.ok and result.status == "ok":
             result.status = "gates_failed"
     _log_revision(out_dir, report)

@@ -562,12 +562,17 @@ class StagedRun:
         st = self.state
         result = StagedResult(status, self.out_dir, st, refine=self.refine_report, message=message)
         if st.source:
-            self.progress("finish", "building the run directory (exports, gates"
-                          + (", battery)" if self.options.simulate else ")"))
             pre = self._prebuilt  # the articulation stage's build of this very program
-            build = (pre[1] if pre[1] is not None and pre[0] == st.source else
-                     self.tools.final_build(st.source, self.out_dir, simulate=self.options.simulate,
-                                            formats=self.options.formats))
+            if pre[1] is not None and pre[0] == st.source:
+                build = pre[1]
+                self.progress("finish", "the articulation stage's build of this program is the run "
+                                        "directory")
+            else:
+                self.progress("finish", "building the run directory (exports, gates"
+                              + (", battery)" if self.options.simulate else ")"))
+                build = self.tools.final_build(st.source, self.out_dir, simulate=self.options.simulate,
+                                               formats=self.options.formats,
+                                               progress=lambda line: self.progress("finish", line))
             result.build = build
             if status == "ok" and not build.ok:
                 result.status, result.message = build.status, build.reason

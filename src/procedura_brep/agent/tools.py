@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import io
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -123,10 +124,12 @@ class Tools:
         return out, legend
 
     def final_build(self, source: str, out_dir: Path, *, simulate: bool = True,
-                    formats: tuple[str, ...] | None = None) -> Any:
+                    formats: tuple[str, ...] | None = None,
+                    progress: Callable[[str], None] | None = None) -> Any:
         """Build the run directory's models and reports from the final program (exported even
-        when a gate fails, so the work is kept: status ``gates_failed``)."""
+        when a gate fails, so the work is kept: status ``gates_failed``); ``progress`` gets the
+        build's stage lines (gates, exports, sheet, battery), so a long build is never silent."""
         from ..run.build import build
         return build(out_dir / "program.py", out_dir, source=source, simulate=simulate, formats=formats,
-                     export_failed=True)
+                     export_failed=True, progress=progress)
 
