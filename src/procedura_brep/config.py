@@ -130,6 +130,10 @@ class Tolerances:
             the staged agent retries the part). The root is judged on its body alone.
         origin_offset_min_mm: the origin gate's limit is never below this (tiny parts: a
             2 mm pin drawn 3 mm off its origin is not the mistake the gate looks for).
+        coupling_axis_deg: a coupling's two joint axes are parallel (gear, belt, screw) or
+            square (rack and pinion) within this angle (``program/couplings.py``).
+        coupling_ratio_rel: battery B8: a coupling's measured driven/driver ratio is within
+            this fraction of the declared one.
     """
 
     placement_mm: float = 1e-6
@@ -188,6 +192,8 @@ class Tolerances:
     drive_max_yaw_deg: float = 5.0
     origin_offset_factor: float = 1.0
     origin_offset_min_mm: float = 5.0
+    coupling_axis_deg: float = 0.5
+    coupling_ratio_rel: float = 0.01
 
 
 @dataclass(frozen=True)

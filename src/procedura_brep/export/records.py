@@ -38,6 +38,8 @@ def mates_json(model: CompiledModel, evidence: dict[str, Any] | None = None) -> 
         })
     out: dict[str, Any] = {"program": model.name, "units": {"length": "mm", "angle": "deg"},
                            "root": model.parts[0].name if model.parts else None, "mates": mates}
+    if model.couplings:  # couple(...): joints that move together (ratio in rad and mm)
+        out["couplings"] = [c.as_dict() for c in model.couplings]
     blocks = {p.name: p.block_of for p in model.parts if p.block_of}
     if blocks:  # colour blocks: rigid with their painted part, joined by no mate
         out["blocks"] = blocks

@@ -14,7 +14,7 @@ from typing import Any
 #: build123d names a program must not see: anything that reads or writes files or meshes,
 #: or registers fonts from the file system.
 _DENY_SUBSTRINGS = ("import", "export", "Export", "Mesher", "Import", "FontManager", "fonts")
-_API = ("material", "part", "paint", "frames", "mate")
+_API = ("material", "part", "paint", "frames", "mate", "couple")
 _LAZY = {"compile_source": ".sandbox", "Worker": ".sandbox", "CompileOptions": ".sandbox",
          "parse_sections": ".sections", "Sections": ".sections", "set_params": ".edit"}
 

@@ -2,7 +2,8 @@
 
 A program starts with ``from procedura_brep.program import *``, which brings in build123d's
 modelling vocabulary (solids, sketches, operations, ``Location``, ``Axis``, ``Align`` ...),
-``math``, and the declarations below (``material``, ``part``, ``paint``, ``frames``, ``mate``).
+``math``, and the declarations below (``material``, ``part``, ``paint``, ``frames``, ``mate``,
+``couple``).
 File import/export functions are *not* exported:
 programs never touch files.
 
@@ -45,7 +46,7 @@ import inspect
 from typing import Any, Callable
 
 from ..errors import MateError, ProgramFormatError
-from .registry import DETAILS, MateDecl, PaintDecl, PartDecl, active
+from .registry import DETAILS, CoupleDecl, MateDecl, PaintDecl, PartDecl, active
 
 #: Most disconnected solids a part may declare (``@part(pieces=N)``).
 MAX_PIECES: int = 1000
@@ -225,6 +226,48 @@ def mate(child: str, parent: str, type: str, *, nominal: str, fit: str | None = 
                                f"not the literal {nominal!r}; add a param and pass its name")
     active().add_mate(MateDecl(mname, cpart, cframe, ppart, pframe, type, nominal, fit,
                                dict(options), line))
+
+
+def couple(driven: str, driver: str, type: str, **named: Any) -> None:
+    """Declare that the ``driven`` mate's joint follows the ``driver`` mate's joint: a
+    transmission (both are kinematic mates declared in the assembly section).
+
+    Every numeric input is the NAME of a param (a string), never a number, so one edit changes
+    the geometry and the ratio together. The ratio and its sign are derived at compile from
+    the params and the two joints' world axes (an external gear mesh reverses the sense).
+
+    Args:
+        driven: the mate whose joint follows (it gets no actuator of its own).
+        driver: the mate whose joint drives it.
+        type: ``gear`` (two revolutes; ``driver_teeth=``, ``driven_teeth=``, ``internal=False``:
+            ``True`` for a ring gear), ``rack_pinion`` (a prismatic and a revolute, either
+            order; ``pinion_teeth=``, ``module=``; pitch radius m z / 2; ``rack="part"`` names
+            the rack part when it is not the slider), ``screw`` (driver revolute, driven
+            prismatic; ``lead=`` in mm per turn, ``hand="right"|"left"``), ``belt`` (two
+            revolutes, same sense; ``driver_teeth=``/``driven_teeth=`` or
+            ``driver_diameter=``/``driven_diameter=``).
+
+    Example::
+
+        couple("wheel_axle", "pinion_axle", "gear", driver_teeth="z_pinion", driven_teeth="z_wheel")
+        couple("carriage_slide", "screw_turn", "screw", lead="screw_lead", hand="right")
+    """
+    from .couplings import check_keywords
+    line = _caller_line()
+    checked = check_keywords(driven, driver, type, named, line)
+    active().add_coupling(CoupleDecl(driven, driver, type, checked, line))
+
+
+def _positive(what: str, value: Any, unit: str) -> float | None:
+    """A ``@part`` mass or wall: None, or a positive finite number (a param's value)."""
+    import math
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) \
+            or not math.isfinite(value) or value <= 0:
+        raise ProgramFormatError(f"{what}={value!r:.40} must be a positive number in {unit} "
+                                 f"(or a param holding one, unquoted: {what}={'body_kg' if what == 'mass' else 'wall_t'})")
+    return float(value)
 
 
 def _finite_location(loc: Any) -> bool:

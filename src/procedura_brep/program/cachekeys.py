@@ -60,7 +60,7 @@ from .registry import PartDecl, Registry
 #: reach a key as matrices and mate rows). Any other module-level call makes the keys
 #: whole-program (see the module docstring). A new declaration function (a per-run material
 #: library, say) belongs here only if what it declares reaches a key or never reaches a solid.
-DECLARATION_CALLS: frozenset[str] = frozenset({"frames", "mate", "material"})
+DECLARATION_CALLS: frozenset[str] = frozenset({"frames", "mate", "material", "couple"})
 #: ``@part`` options that never reach the solid: the compiled part takes them from the
 #: declaration on every compile, cache hit or not, so changing one keeps the cache.
 UNKEYED_OPTIONS: tuple[str, ...] = ("material", "description")

@@ -165,6 +165,44 @@ class CompiledMate:
         return self.options.get("limits")
 
 
+@dataclass(frozen=True)
+class CompiledCoupling:
+    """One ``couple(...)`` as compiled: two kinematic mates that move together.
+
+    Attributes:
+        name: ``f"{driven}__{driver}"``.
+        type: ``gear`` | ``rack_pinion`` | ``screw`` | ``belt`` | ``linkage``.
+        driven, driver: the mate names (the driven joint follows the driver).
+        ratio: d(driven)/d(driver) with angles in rad and lengths in mm (rad/rad, mm/rad or
+            rad/mm), signed: the sign comes from the mesh (an external gear pair reverses the
+            sense) and from the two joints' world axes. 0 for a linkage (no constant ratio).
+        offset: the driven position when the driver is at 0, on the same scale; joint
+            positions count from the compiled pose, where every coupled pair meshes, so 0.
+        inputs: keyword -> the param name it reads (``{"driver_teeth": "z_pinion"}``), or the
+            literal option (``hand``, ``internal``, ``rack``, ``closes``) as text.
+        values: keyword -> the param's value at compile.
+        closes: a linkage's cut mate ("" otherwise).
+        line: the program line of the statement.
+    """
+
+    name: str
+    type: str
+    driven: str
+    driver: str
+    ratio: float
+    offset: float = 0.0
+    inputs: dict[str, str] = field(default_factory=dict)
+    values: dict[str, float] = field(default_factory=dict)
+    closes: str = ""
+    line: int | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-safe (``mates.json``, the compile result)."""
+        return {"name": self.name, "type": self.type, "driven": self.driven, "driver": self.driver,
+                "ratio": self.ratio, "offset": self.offset, "inputs": dict(self.inputs),
+                "values": dict(self.values), "closes": self.closes, "line": self.line}
+
+
 @dataclass
 class CompiledModel:
     """The whole assembly in plan order (the first part is the root).
@@ -184,6 +222,8 @@ class CompiledModel:
     #: The OS isolation layers the compile child ran under, set by the parent from the child's
     #: log (``applied: netns no_new_privs landlock seccomp; not applied: -``); "" when unknown.
     isolation: str = ""
+    #: The ``couple(...)`` statements, checked and resolved (ratio and sign), in program order.
+    couplings: list[CompiledCoupling] = field(default_factory=list)
 
     def material_of(self, part: CompiledPart) -> Material:
         """The library entry of ``part``'s material (a MaterialError lists the library)."""
@@ -237,5 +277,6 @@ def to_json(model: CompiledModel, *, by_key: bool = False) -> dict[str, Any]:
         "mates": [{**{k: v for k, v in m.__dict__.items() if k != "world_frame"},
                    "world_frame": _m(m.world_frame)} for m in model.mates],
         "materials": library_to_json(model.declared_materials),
+        "couplings": [c.as_dict() for c in model.couplings],
     }
 

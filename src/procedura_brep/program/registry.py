@@ -65,6 +65,18 @@ class MateDecl:
 
 
 @dataclass
+class CoupleDecl:
+    """One ``couple(driven, driver, type, ...)`` declaration (checked at compile: see
+    :mod:`procedura_brep.program.couplings`)."""
+
+    driven: str
+    driver: str
+    type: str
+    named: dict[str, Any]
+    line: int | None
+
+
+@dataclass
 class Registry:
     """Everything one program declares, in declaration order."""
 
@@ -74,6 +86,7 @@ class Registry:
     mates: list[MateDecl] = field(default_factory=list)
     materials: dict[str, Material] = field(default_factory=dict)  # the program's own, in order
     paints: list[PaintDecl] = field(default_factory=list)  # colour blocks, in program order
+    couplings: list[CoupleDecl] = field(default_factory=list)  # couple(...), in program order
 
     @property
     def library(self) -> dict[str, Material]:
@@ -129,6 +142,13 @@ class Registry:
         if any(m.name == decl.name for m in self.mates):
             raise MateError(decl.name, "a mate with this name is declared twice; pass name=...")
         self.mates.append(decl)
+
+    def add_coupling(self, decl: CoupleDecl) -> None:
+        for what, value in (("driven mate", decl.driven), ("driver mate", decl.driver)):
+            if not valid_name(value):
+                raise ProgramFormatError(f"couple: {what} {value!r:.80} must be a mate name "
+                                         f"[a-z][a-z0-9_]*", line=decl.line)
+        self.couplings.append(decl)
 
 
 _ACTIVE: list[Registry] = []

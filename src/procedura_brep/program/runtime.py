@@ -30,7 +30,7 @@ from ..findings import failed
 from ..mates import check_options, get_type
 from ..mates import placement as pl
 from ..mates.kinds import Motion
-from . import allowlist, blocks, cache, cachekeys, caps, guards, registry
+from . import allowlist, blocks, cache, cachekeys, caps, couplings, guards, registry
 from .model import CompiledMate, CompiledModel, CompiledPart, Finding
 from .sections import parse_sections
 from .values import as_solid as _as_solid
@@ -205,6 +205,9 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     b.timings["cache_hits"] = float(len(hits))
     model = _serialise(b, reg, params, mates, time.perf_counter() - t0, part_keys)
     model.parts = blocks.with_blocks(b, model.parts, painted)
+    if reg.couplings:  # after placement: signs come from the joints' world axes
+        model.couplings, found = couplings.resolve(reg.couplings, model, {m.name for m in reg.mates})
+        model.findings.extend(found)
     return model
 
 

@@ -24,7 +24,7 @@ from ..errors import ProceduraError
 from ..findings import SEVERITIES
 from ..materials import MATERIALS, Material, MaterialError, library_from_json
 from ..mates import TYPES
-from .model import CompiledMate, CompiledModel, CompiledPart, Finding, cap_text
+from .model import CompiledCoupling, CompiledMate, CompiledModel, CompiledPart, Finding, cap_text
 from .registry import DETAILS
 
 #: Part, frame and mate names: the identifiers every exporter writes (USD prims, URDF links,
@@ -267,6 +267,34 @@ def _mate(m: Any, i: int, parts: dict[str, CompiledPart], rigid: _Rigid) -> Comp
         line=None if m.get("line") is None else _int(m["line"], f"{where}.line"))
 
 
+def _coupling(c: Any, i: int, mates: dict[str, CompiledMate]) -> CompiledCoupling:
+    from .couplings import SPECS
+    where = f"couplings[{i}]"
+    c = _dict(c, where, 16)
+    ctype = c.get("type")
+    if not isinstance(ctype, str) or ctype not in SPECS:
+        raise _bad(f"{where}.type", f"= {ctype!r:.40} is not a coupling type")
+    driven, driver = (_name(c.get(k), f"{where}.{k}") for k in ("driven", "driver"))
+    for k, v in (("driven", driven), ("driver", driver)):
+        if v not in mates or mates[v].kind != "kinematic":
+            raise _bad(f"{where}.{k}", f"= {v!r} is not a kinematic mate of the result")
+    name = _name(c.get("name"), f"{where}.name")
+    if name != f"{driven}__{driver}":
+        raise _bad(f"{where}.name", f"= {name!r} is not '{driven}__{driver}'")
+    closes = c.get("closes", "")
+    if closes != "":
+        closes = _name(closes, f"{where}.closes")
+    inputs = {_name(k, f"{where}.inputs key", IDENT): _name(v, f"{where}.inputs[{k}]", IDENT)
+              for k, v in _dict(c.get("inputs", {}), f"{where}.inputs", 8).items()}
+    values = {_name(k, f"{where}.values key", IDENT): _num(v, f"{where}.values[{k}]", lo=0.0)
+              for k, v in _dict(c.get("values", {}), f"{where}.values", 8).items()}
+    return CompiledCoupling(name=name, type=ctype, driven=driven, driver=driver,
+                            ratio=_num(c.get("ratio"), f"{where}.ratio"),
+                            offset=_num(c.get("offset", 0.0), f"{where}.offset"),
+                            inputs=inputs, values=values, closes=closes,
+                            line=None if c.get("line") is None else _int(c["line"], f"{where}.line"))
+
+
 def model_from_json(d: Any, *, name: str | None = None, cache_dir: str | None = None) -> CompiledModel:
     """A :class:`CompiledModel` from the child's JSON, every field validated.
 
@@ -305,5 +333,9 @@ def model_from_json(d: Any, *, name: str | None = None, cache_dir: str | None = 
     findings = [finding_from_json(f, f"findings[{i}]")
                 for i, f in enumerate(_list(d.get("findings", []), "findings", 1000))]
     model_name = name if name is not None else _name(d.get("name"), "name", IDENT)
+    by_name = {m.name: m for m in mates}
+    from .couplings import MAX_COUPLINGS
+    couplings = [_coupling(c, i, by_name)
+                 for i, c in enumerate(_list(d.get("couplings", []), "couplings", MAX_COUPLINGS))]
     return CompiledModel(name=model_name, params=params, parts=list(parts.values()), mates=mates,
-                         findings=findings, timings=timings, materials=library)
+                         findings=findings, timings=timings, materials=library, couplings=couplings)
