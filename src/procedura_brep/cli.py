@@ -665,6 +665,29 @@ def serve(
 
 @app.command()
 @guarded
+def view(
+    run_dir: Annotated[Path, typer.Argument(help="A run directory with a viewer (any build writes one).")],
+    port: Annotated[int, typer.Option("--port", min=0, max=65535,
+                                      help="The port on 127.0.0.1 (default: a free one).")] = 0,
+) -> None:
+    """Serve RUN_DIR's viewer.html on 127.0.0.1 and print its address (Ctrl-C stops it).
+
+    The page also opens straight from the file system, with no server and no network."""
+    from .run.view import ViewServer, serve_until_interrupted
+
+    def ready(server: ViewServer) -> None:
+        typer.echo(f"viewer: {server.url}")
+        typer.echo(f"(also without a server: {server.file_url}); Ctrl-C stops it", err=True)
+    try:
+        serve_until_interrupted(run_dir, port=port, ready=ready)
+    except OSError as exc:
+        _err(f"cannot serve {run_dir} on 127.0.0.1:{port}: {(exc.strerror or str(exc)).lower()}")
+        raise typer.Exit(EXIT_USAGE) from None
+    typer.echo("viewer stopped", err=True)
+
+
+@app.command()
+@guarded
 def mcp(
     http: Annotated[Optional[int], typer.Option("--http", min=1, max=65535, help="Serve streamable "
                                                 "HTTP on 127.0.0.1:PORT instead of stdio.")] = None,

@@ -76,6 +76,11 @@ def _urdf(job: ExportJob) -> dict[str, bytes]:
     return {f"urdf/{k}": v for k, v in urdf_files(job.model, art=job.art, masses=job.masses).items()}
 
 
+def _viewer(job: ExportJob) -> dict[str, bytes]:
+    from .viewer import viewer_files
+    return viewer_files(job.model, job.art)
+
+
 def _mjcf(job: ExportJob) -> dict[str, bytes]:
     from .mjcf import mjcf_files
     return mjcf_files(job.model, art=job.art, masses=job.masses)
@@ -92,6 +97,8 @@ REGISTRY: dict[str, Format] = {f.name: f for f in (
            articulated=True),
     Format("mjcf", "model.xml, urdf/meshes/", "MJCF scene the MuJoCo battery runs (meshes "
            "shared with urdf/)", _mjcf, articulated=True),
+    Format("viewer", "viewer.html, viewer/", "offline viewer: part tree, joint sliders, exploded "
+           "view, mate frames, findings (three.js, no network)", _viewer),
 )}
 
 #: Every format name ``--formats`` accepts, in writing order.

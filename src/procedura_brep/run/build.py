@@ -29,7 +29,7 @@ from ..paths import program_name
 from ..program.model import CompiledModel
 from . import steps
 from .directory import Staging
-from .report import describe, reason, run_report, write_summary
+from .report import describe, reason, run_report, write_summary, write_viewer_findings
 from .status import Status, exit_code
 from .steps import dump_json
 
@@ -91,7 +91,7 @@ def build(program: Path, out_dir: Path, *, formats: tuple[str, ...] | None = Non
     Args:
         program: path of the program file.
         out_dir: the run directory (created).
-        formats: exports to write (None: all); ``step`` is always written.
+        formats: exports to write (None: all); ``step`` and the viewer are always written.
         name: the model name (default from the path).
         gates: run the verification gates (before any export) and record them in the report.
         source: the program text (default: read ``program``).
@@ -110,7 +110,7 @@ def build(program: Path, out_dir: Path, *, formats: tuple[str, ...] | None = Non
     name = name or program_name(program)
     source = program.read_text(encoding="utf-8") if source is None else source
     from ..export.bundle import parse_formats
-    fmts = tuple(dict.fromkeys(("step", *parse_formats(formats))))
+    fmts = tuple(dict.fromkeys(("step", *parse_formats(formats), "viewer")))
     run = _Run(Staging(out_dir), BuildResult(Status.FAILED, out_dir), t0, progress)
     with interrupt.on_interrupt(run.interrupted):
         try:
@@ -178,6 +178,7 @@ class _Run:
         self.result.status = status
         report = self.result.report = self.report(status, complete=True)
         self.staging.write("report.json", dump_json(report))
+        write_viewer_findings(self.staging.dir, report)  # final only now, swapped in with it
         self.staging.commit()
         out = self.result.out_dir
         write_summary(out, report)
@@ -202,6 +203,7 @@ class _Run:
         self.result.report = report
         out = self.result.out_dir
         write_summary(out, report)
+        write_viewer_findings(out, report)  # a kept previous build's viewer lists these
         self.result.files = {"report": out / "report.json"}
         if not report.get("kept_previous"):
             self.result.files["program"] = out / "program.py"

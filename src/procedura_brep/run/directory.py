@@ -37,7 +37,8 @@ from ..paths import write_atomic
 #: Everything a build owns in a run directory (relative paths); the rest is left alone.
 BUILD_OUTPUTS: tuple[str, ...] = (
     "program.py", "mates.json", "model.step", "model.obj", "model.mtl", "model.glb",
-    "model.usda", "model.xml", "urdf", "renders/sim", "sheet.png", "summary.md", "report.json")  # report.json last
+    "model.usda", "model.xml", "urdf", "viewer.html", "viewer", "renders/sim", "sheet.png",
+    "summary.md", "report.json")  # report.json last
 #: Statuses whose build always writes every file it was asked for (a ``gates_failed`` build
 #: does only when asked to export anyway: its report then says ``"complete": true``).
 COMPLETE: frozenset[str] = frozenset({"ok", "battery_failed"})

@@ -82,6 +82,8 @@ __all__ = ["describe", "reason", "run_report"]
 OUTPUT_NOTES: tuple[tuple[str, str], ...] = (
     ("program.py", "the editable program (open it, edit a param, build again)"),
     ("sheet.png", "the model in PBR: six views and an iso, every part named on the legend"),
+    ("viewer.html", "open it in a browser (no network): part tree, joint sliders, exploded "
+                    "view, findings; or procedura-brep view DIR"),
     ("report.json", "everything below, machine-readable"),
     ("mates.json", "the mates, their frames and the articulation evidence"),
     ("model.step", "STEP with named, coloured parts (FreeCAD, any CAD suite)"),
@@ -147,5 +149,21 @@ def write_summary(out_dir: Any, report: Mapping[str, Any]) -> None:
     from ..paths import write_atomic
     try:
         write_atomic(Path(out_dir) / "summary.md", summary_md(report, out_dir))
+    except OSError:
+        pass
+
+
+def write_viewer_findings(run_dir: Any, report: Mapping[str, Any]) -> None:
+    """Rewrite ``viewer/findings.js`` for ``report`` where ``run_dir`` holds a viewer (the
+    bundle wrote it before the findings were final); a best effort, as the summary."""
+    from pathlib import Path
+
+    from ..export.viewer import FINDINGS_JS, findings_js
+    from ..paths import write_atomic
+    root = Path(run_dir)
+    if not (root / "viewer.html").is_file():
+        return
+    try:
+        write_atomic(root / FINDINGS_JS, findings_js(report))
     except OSError:
         pass
