@@ -36,6 +36,7 @@ def test_ratios_and_signs_follow_the_params_and_axes(worker):
     assert got["rack_slide__pinion_hub"] == pytest.approx(2.0 * 12 / 2)
     # a right-hand screw turning +theta about +X pulls a nut that cannot turn back along -X
     assert got["nut_slide__screw_hub"] == pytest.approx(-4.0 / (2 * math.pi))
+    assert [c.mesh for c in m.couplings] == [("wheel", "pinion"), ("rack", "pinion"), ("screw", "nut")]
     gear = next(c for c in m.couplings if c.type == "gear")
     assert gear.inputs["driver_teeth"] == "z_pinion" and gear.values["driven_teeth"] == 36.0
 

@@ -255,10 +255,10 @@ def _one(d: CoupleDecl, who: str, mates: dict[str, CompiledMate],
                 inputs[k] = str(v).lower() if isinstance(v, bool) else str(v)
             continue
         inputs[k], values[k] = v, _param(k, v, model.params)
-    ratio = _RATIO[d.type](d, driven, driver, values, model)
+    ratio, mesh = _RATIO[d.type](d, driven, driver, values, model)
     return CompiledCoupling(name=f"{d.driven}__{d.driver}", type=d.type, driven=d.driven,
                             driver=d.driver, ratio=ratio, inputs=inputs, values=values,
-                            closes=str(d.named.get("closes", "")), line=d.line)
+                            closes=str(d.named.get("closes", "")), line=d.line, mesh=mesh)
 
 
 def _param(key: str, name: str, params: dict[str, Any]) -> float:
@@ -290,18 +290,18 @@ def _parallel(a: CompiledMate, b: CompiledMate, what: str) -> float:
 
 
 def _gear(d: CoupleDecl, driven: CompiledMate, driver: CompiledMate, v: dict[str, float],
-          model: CompiledModel) -> float:
+          model: CompiledModel) -> tuple[float, tuple[str, str]]:
     sense = _parallel(driver, driven, "a spur gear pair")
     mesh = 1.0 if d.named.get("internal") else -1.0
-    return mesh * sense * v["driver_teeth"] / v["driven_teeth"]
+    return mesh * sense * v["driver_teeth"] / v["driven_teeth"], (driven.child, driver.child)
 
 
 def _belt(d: CoupleDecl, driven: CompiledMate, driver: CompiledMate, v: dict[str, float],
-          model: CompiledModel) -> float:
+          model: CompiledModel) -> tuple[float, tuple[str, str]]:
     sense = _parallel(driver, driven, "a belt")
     if "driver_teeth" in v:
-        return sense * v["driver_teeth"] / v["driven_teeth"]
-    return sense * v["driver_diameter"] / v["driven_diameter"]
+        return sense * v["driver_teeth"] / v["driven_teeth"], ("", "")
+    return sense * v["driver_diameter"] / v["driven_diameter"], ("", "")
 
 
 def _ancestors(part: str, model: CompiledModel) -> list[str]:
@@ -319,7 +319,7 @@ def _rides(revolute: CompiledMate, prismatic: CompiledMate, model: CompiledModel
 
 
 def _rack(d: CoupleDecl, driven: CompiledMate, driver: CompiledMate, v: dict[str, float],
-          model: CompiledModel) -> float:
+          model: CompiledModel) -> tuple[float, tuple[str, str]]:
     rev, pri = (driver, driven) if driver.type == "revolute" else (driven, driver)
     a, s = _axis(rev), _axis(pri)
     dot = float(a @ s)
@@ -343,15 +343,16 @@ def _rack(d: CoupleDecl, driven: CompiledMate, driver: CompiledMate, v: dict[str
                        f"name the rack part with rack='...'")
     r = v["module"] * v["pinion_teeth"] / 2.0
     k = r * (1.0 if side > 0 else -1.0) * (-1.0 if rides else 1.0)  # mm of slide per rad
-    return k if driven is pri else 1.0 / k
+    return (k if driven is pri else 1.0 / k), (rack, rev.child)
 
 
 def _screw(d: CoupleDecl, driven: CompiledMate, driver: CompiledMate, v: dict[str, float],
-           model: CompiledModel) -> float:
+           model: CompiledModel) -> tuple[float, tuple[str, str]]:
     sense = _parallel(driver, driven, "a lead screw and its nut")
     hand = 1.0 if d.named.get("hand", "right") == "right" else -1.0
     rides = _rides(driver, driven, model)
-    return -hand * sense * (-1.0 if rides else 1.0) * v["lead"] / (2 * math.pi)
+    nut = driven.parent if rides else driven.child
+    return -hand * sense * (-1.0 if rides else 1.0) * v["lead"] / (2 * math.pi), (driver.child, nut)
 
 
 _RATIO = {"gear": _gear, "belt": _belt, "rack_pinion": _rack, "screw": _screw}

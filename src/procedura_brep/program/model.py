@@ -183,6 +183,10 @@ class CompiledCoupling:
         values: keyword -> the param's value at compile.
         closes: a linkage's cut mate ("" otherwise).
         line: the program line of the statement.
+        mesh: the two parts whose surfaces engage (gear and gear, rack and pinion, screw and
+            nut; ``("", "")`` for a belt): the coupling gate checks them, and the battery's
+            exact sweep leaves the pair to it (one part swept past a still partner would
+            collide tooth on tooth).
     """
 
     name: str
@@ -195,12 +199,14 @@ class CompiledCoupling:
     values: dict[str, float] = field(default_factory=dict)
     closes: str = ""
     line: int | None = None
+    mesh: tuple[str, str] = ("", "")
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-safe (``mates.json``, the compile result)."""
         return {"name": self.name, "type": self.type, "driven": self.driven, "driver": self.driver,
                 "ratio": self.ratio, "offset": self.offset, "inputs": dict(self.inputs),
-                "values": dict(self.values), "closes": self.closes, "line": self.line}
+                "values": dict(self.values), "closes": self.closes, "line": self.line,
+                "mesh": list(self.mesh)}
 
 
 @dataclass

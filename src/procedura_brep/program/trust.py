@@ -267,7 +267,8 @@ def _mate(m: Any, i: int, parts: dict[str, CompiledPart], rigid: _Rigid) -> Comp
         line=None if m.get("line") is None else _int(m["line"], f"{where}.line"))
 
 
-def _coupling(c: Any, i: int, mates: dict[str, CompiledMate]) -> CompiledCoupling:
+def _coupling(c: Any, i: int, mates: dict[str, CompiledMate], parts: dict[str, CompiledPart]
+              ) -> CompiledCoupling:
     from .couplings import SPECS
     where = f"couplings[{i}]"
     c = _dict(c, where, 16)
@@ -288,11 +289,15 @@ def _coupling(c: Any, i: int, mates: dict[str, CompiledMate]) -> CompiledCouplin
               for k, v in _dict(c.get("inputs", {}), f"{where}.inputs", 8).items()}
     values = {_name(k, f"{where}.values key", IDENT): _num(v, f"{where}.values[{k}]", lo=0.0)
               for k, v in _dict(c.get("values", {}), f"{where}.values", 8).items()}
+    mesh = _list(c.get("mesh", ["", ""]), f"{where}.mesh", 2)
+    if len(mesh) != 2 or any(x != "" and x not in parts for x in mesh):
+        raise _bad(f"{where}.mesh", f"= {mesh!r:.80} is not a pair of part names")
     return CompiledCoupling(name=name, type=ctype, driven=driven, driver=driver,
                             ratio=_num(c.get("ratio"), f"{where}.ratio"),
                             offset=_num(c.get("offset", 0.0), f"{where}.offset"),
                             inputs=inputs, values=values, closes=closes,
-                            line=None if c.get("line") is None else _int(c["line"], f"{where}.line"))
+                            line=None if c.get("line") is None else _int(c["line"], f"{where}.line"),
+                            mesh=(str(mesh[0]), str(mesh[1])))
 
 
 def model_from_json(d: Any, *, name: str | None = None, cache_dir: str | None = None) -> CompiledModel:
@@ -335,7 +340,7 @@ def model_from_json(d: Any, *, name: str | None = None, cache_dir: str | None = 
     model_name = name if name is not None else _name(d.get("name"), "name", IDENT)
     by_name = {m.name: m for m in mates}
     from .couplings import MAX_COUPLINGS
-    couplings = [_coupling(c, i, by_name)
+    couplings = [_coupling(c, i, by_name, parts)
                  for i, c in enumerate(_list(d.get("couplings", []), "couplings", MAX_COUPLINGS))]
     return CompiledModel(name=model_name, params=params, parts=list(parts.values()), mates=mates,
                          findings=findings, timings=timings, materials=library, couplings=couplings)
