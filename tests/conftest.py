@@ -11,6 +11,8 @@ os.environ["PROCEDURA_BREP_NO_NETWORK"] = "1"
 # Never compile through a warm server a developer left running (`procedura-brep serve`): the
 # tests that exercise one start their own on a socket of their own.
 os.environ["PROCEDURA_BREP_SERVER"] = "off"
+# Keep the persistent part store out of the suite (a test that exercises it names its own).
+os.environ["PROCEDURA_BREP_CACHE"] = "off"
 
 
 @pytest.fixture(scope="session")

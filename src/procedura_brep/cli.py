@@ -657,7 +657,8 @@ def serve(
     def ready(path: Path) -> None:
         typer.echo(f"warm worker listening on {path} (pid {os.getpid()}); Ctrl-C stops it", err=True)
     try:
-        run(Worker(), socket_path, ready=ready)
+        from .program.cache import persistent_dir
+        run(Worker(cache_dir=persistent_dir()), socket_path, ready=ready)
     except (OSError, CompileError) as exc:
         _err(f"cannot serve: {exc}")
         raise typer.Exit(EXIT_FAIL) from None

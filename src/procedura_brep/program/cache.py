@@ -7,6 +7,14 @@ mates that add features to it). A compile loads the solid of every part whose ke
 and runs only the others, so an edit, or a splice of one more part, rebuilds the parts whose
 inputs changed and nothing else.
 
+The store outlives the process (:func:`persistent_dir`): a ``build`` leaves its parts there,
+and a ``check``, ``render`` or ``edit`` of the same program right after loads every one
+instead of compiling it again, whether or not a warm server (``procedura-brep serve``) runs.
+Its folder is per code digest (:func:`procedura_brep.program.server.code_digest`: this
+package's sources, the interpreter, build123d's version), so a changed install never reads a
+solid an older one made (a mate feature's code is ours, not the key's); ``PROCEDURA_BREP_CACHE``
+names another folder or turns it off.
+
 The store is a folder of ``<key>.brep`` files (OCCT binary BRep), each with a ``<key>.fig``
 beside it: the solid's size figures (:class:`~procedura_brep.program.caps.Figures`), measured
 by the parent when it stores the solid, so a compile that hits the cache checks its caps
@@ -25,6 +33,74 @@ from typing import Any
 from ..paths import write_atomic
 
 KEY_RE = re.compile(r"[0-9a-f]{64}")
+
+
+#: The environment variable naming the persistent store's folder, or ``off``.
+ENV_CACHE = "PROCEDURA_BREP_CACHE"
+#: Digest folders of other code versions unused this long are removed (seconds).
+STALE_AFTER_S = 14 * 24 * 3600
+#: The current digest folder is trimmed (oldest files first) to this many bytes.
+MAX_BYTES = 2 * 1024 ** 3
+
+
+def persistent_root() -> Path | None:
+    """``$PROCEDURA_BREP_CACHE`` (None when ``off``), else
+    ``$XDG_CACHE_HOME/procedura-brep/parts``, else ``~/.cache/procedura-brep/parts``."""
+    value = os.environ.get(ENV_CACHE, "").strip()
+    if value.lower() == "off":
+        return None
+    if value:
+        return Path(value).expanduser()
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "procedura-brep" / "parts"
+
+
+def persistent_dir() -> str | None:
+    """This code version's folder of the persistent store (created; see the module doc), after
+    a best-effort cleanup of other versions' stale folders and a trim of this one; None when
+    the store is off or cannot be made (a read-only home: the worker then keeps a private
+    temporary store, as before)."""
+    from .server import code_digest
+    root = persistent_root()
+    if root is None:
+        return None
+    folder = root / code_digest()[:16]
+    try:
+        root.mkdir(parents=True, exist_ok=True, mode=0o700)
+        root.chmod(0o700)  # the sandbox child reads the store through an open folder fd only
+        folder.mkdir(exist_ok=True)
+        folder.chmod(0o755)
+        os.utime(folder)  # in use: not stale
+    except OSError:
+        return None
+    try:
+        prune(root, keep=folder)
+    except OSError:  # pragma: no cover - a best effort (a concurrent prune, a full disk)
+        pass
+    return str(folder)
+
+
+def prune(root: Path, *, keep: Path, stale_after_s: float = STALE_AFTER_S,
+          max_bytes: int = MAX_BYTES) -> int:
+    """Remove other code versions' folders unused for ``stale_after_s`` and trim ``keep`` to
+    ``max_bytes`` (oldest files first); returns how many files went."""
+    import shutil
+    import time
+    gone = 0
+    now = time.time()
+    for other in root.iterdir():
+        if other != keep and other.is_dir() and now - other.stat().st_mtime > stale_after_s:
+            gone += sum(1 for _ in other.iterdir())
+            shutil.rmtree(other, ignore_errors=True)
+    files = [(f.stat().st_mtime, f.stat().st_size, f) for f in keep.iterdir() if f.is_file()]
+    total = sum(size for _, size, _ in files)
+    for _, size, f in sorted(files, key=lambda row: row[0]):
+        if total <= max_bytes:
+            break
+        f.unlink(missing_ok=True)
+        total -= size
+        gone += 1
+    return gone
 
 
 def valid_key(key: object) -> bool:

@@ -184,9 +184,10 @@ class Worker:
         refuse_oversized(source, options.limits)
         with self._lock:
             proc = self._ensure_ready()
+            built = 0  # parts built rather than loaded from the store, over every child
             if options.cache and not self._prebuilt:
                 self._prebuilt = True
-                self._prebuild(proc, source, options)
+                built = self._prebuild(proc, source, options)
             scratch = tempfile.mkdtemp(prefix=f"{TEMP_PREFIXES[1]}{os.getpid()}-")
             try:
                 reply = self._ask(proc, {
@@ -199,6 +200,8 @@ class Worker:
                                 name=options.name,
                                 cache_dir=self.cache_dir if options.cache else None)
                 model.isolation = self.isolation
+                model.timings["parts_built"] = float(
+                    built + len(model.parts) - int(model.timings.get("cache_hits", 0)))
                 if options.cache and model.ok:
                     from .cache import store_model
                     store_model(self.cache_dir, model, options.limits)
@@ -224,23 +227,25 @@ class Worker:
             reply = {}
         return reply if isinstance(reply, dict) else {}
 
-    def _prebuild(self, proc: subprocess.Popen[str], source: str, options: CompileOptions) -> None:
+    def _prebuild(self, proc: subprocess.Popen[str], source: str, options: CompileOptions) -> int:
         """A parallel cold compile: a worker's first compile of a program of at least
         ``2 * PREBUILD_SHARE`` parts runs first in up to :data:`PREBUILD_JOBS` children at
         once (one per core), each building the final solids of its share of the parts (round
         robin in plan order) for the part cache; the compile proper then finds every part
         there. The shares are gated by nothing: a part that fails in its share is not stored
         and fails again, with its finding, in the compile proper. A share that is killed or
-        times out is the compile's error (the compile proper would end the same way)."""
+        times out is the compile's error (the compile proper would end the same way).
+        Returns how many parts the shares built (not loaded from the store)."""
         from .cache import store_model
         from .splice import program_parts
         try:
             names = program_parts(source)
         except (ProceduraError, SyntaxError, ValueError):
-            return  # the compile proper reports it
+            return 0  # the compile proper reports it
         jobs = min(PREBUILD_JOBS, os.cpu_count() or 1, len(names) // PREBUILD_SHARE)
         if jobs < 2:
-            return
+            return 0
+        built = 0
         scratches = [tempfile.mkdtemp(prefix=f"{TEMP_PREFIXES[1]}{os.getpid()}-") for _ in range(jobs)]
         try:
             reply = self._ask(proc, {
@@ -251,10 +256,12 @@ class Worker:
             for i, scratch in enumerate(scratches):
                 row = rows[i] if isinstance(rows, list) and i < len(rows) and isinstance(rows[i], dict) else {}
                 share = _result(row, scratch, options.limits, name=options.name, cache_dir=self.cache_dir)
+                built += len(share.parts)  # a share returns only the parts it built
                 store_model(self.cache_dir, share, options.limits)
         finally:
             for scratch in scratches:
                 shutil.rmtree(scratch, ignore_errors=True)
+        return built
 
 
 #: A worker's first compile is shared out among at most this many children at once ...
@@ -414,10 +421,15 @@ _DEFAULT: Worker | None = None
 
 def default_worker() -> Worker:
     """The process-wide worker: a running warm server's when one answers with this code
-    (:func:`connect_server`), else a local one started on first use; stopped at exit."""
+    (:func:`connect_server`), else a local one started on first use, on the persistent part
+    store (:func:`.cache.persistent_dir`); stopped at exit."""
     global _DEFAULT
     if _DEFAULT is None:
-        _DEFAULT = connect_server() or Worker()
+        if (server := connect_server()) is not None:
+            _DEFAULT = server
+        else:
+            from .cache import persistent_dir
+            _DEFAULT = Worker(cache_dir=persistent_dir())
         atexit.register(_DEFAULT.close)
     return _DEFAULT.start()
 
