@@ -83,7 +83,8 @@ def material(name: str, *, base: str | None = None, rgb: tuple[float, float, flo
 
 
 def part(*, detail: str = "major", material: str = "steel", description: str = "",
-         pieces: int = 1) -> Callable[[Callable[[], Any]], Callable[[], Any]]:
+         pieces: int = 1, mass: float | None = None, hollow: float | None = None
+         ) -> Callable[[Callable[[], Any]], Callable[[], Any]]:
     """Register a function as a part. The part's name is the function's name (snake_case).
 
     The function takes no arguments, reads params as globals, and returns one build123d solid
@@ -98,6 +99,14 @@ def part(*, detail: str = "major", material: str = "steel", description: str = "
         description: one line: what the part is, its size and where it sits.
         pieces: how many disconnected solids the part is on purpose (default 1); any other
             detached piece is a gate finding.
+        mass: what the part weighs, in kg (> 0), when its solid is not what it weighs (a
+            box standing for a chassis full of air): the density is scaled so the part
+            weighs this; centre of mass and inertia keep the solid's shape. A param may
+            give it (``mass=chassis_kg``).
+        hollow: the wall thickness in mm (> 0) of a part that is a shell (a casting, a
+            cover, a box chassis): it weighs as that shell of its material; the geometry
+            stays the solid you return. Less than half the part's thickness. At most one of
+            ``mass`` and ``hollow``; neither: the part is solid.
 
     Example::
 
@@ -110,12 +119,16 @@ def part(*, detail: str = "major", material: str = "steel", description: str = "
         raise ProgramFormatError(f"detail {detail!r} is not one of {', '.join(DETAILS)}")
     if isinstance(pieces, bool) or not isinstance(pieces, int) or not 1 <= pieces <= MAX_PIECES:
         raise ProgramFormatError(f"pieces={pieces!r} must be an integer in [1, {MAX_PIECES}]")
+    if mass is not None and hollow is not None:
+        raise ProgramFormatError(f"mass={mass!r:.40} and hollow={hollow!r:.40}: give one of them "
+                                 f"(mass= says what the part weighs; hollow= makes it a shell)")
+    mass_kg, wall_mm = _positive("mass", mass, "kg"), _positive("hollow", hollow, "mm")
 
     def register(fn: Callable[[], Any]) -> Callable[[], Any]:
         code = fn.__code__
         end = max((ln for _, _, ln in code.co_lines() if ln), default=code.co_firstlineno)
         active().add_part(PartDecl(fn.__name__, fn, detail, material, description,
-                                   code.co_firstlineno, end, pieces))
+                                   code.co_firstlineno, end, pieces, mass_kg, wall_mm))
         return fn
 
     return register
@@ -265,8 +278,9 @@ def _positive(what: str, value: Any, unit: str) -> float | None:
         return None
     if isinstance(value, bool) or not isinstance(value, (int, float)) \
             or not math.isfinite(value) or value <= 0:
+        example = "body_kg" if what == "mass" else "wall_t"
         raise ProgramFormatError(f"{what}={value!r:.40} must be a positive number in {unit} "
-                                 f"(or a param holding one, unquoted: {what}={'body_kg' if what == 'mass' else 'wall_t'})")
+                                 f"(or a param holding one, unquoted: {what}={example})")
     return float(value)
 
 

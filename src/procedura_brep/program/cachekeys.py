@@ -63,7 +63,7 @@ from .registry import PartDecl, Registry
 DECLARATION_CALLS: frozenset[str] = frozenset({"frames", "mate", "material", "couple"})
 #: ``@part`` options that never reach the solid: the compiled part takes them from the
 #: declaration on every compile, cache hit or not, so changing one keeps the cache.
-UNKEYED_OPTIONS: tuple[str, ...] = ("material", "description")
+UNKEYED_OPTIONS: tuple[str, ...] = ("material", "description", "mass", "hollow")
 #: Values a key hashes by ``repr``: module-level constants that cannot hide geometry.
 _PLAIN = (int, float, bool, str, bytes, type(None))
 _MISSING = object()
@@ -325,7 +325,7 @@ def function_state(fn: Any, out: list[str]) -> bool:
 
 def _decl_options(decl: PartDecl) -> str:
     opts = {"detail": decl.detail, "material": decl.material, "description": decl.description,
-            "pieces": decl.pieces}
+            "pieces": decl.pieces, "mass": decl.mass, "hollow": decl.hollow}
     return "options " + repr({k: v for k, v in opts.items() if k not in UNKEYED_OPTIONS})
 
 

@@ -64,6 +64,12 @@ class CompiledPart:
     reads: tuple[str, ...] = ()
     cache_key: str = ""
     pieces: int = 1
+    #: Declared mass in kg (``@part(mass=...)``): the part's density is scaled so it weighs
+    #: this (centre of mass and inertia shape from the solid); None: volume x density.
+    mass: float | None = None
+    #: Wall thickness in mm (``@part(hollow=...)``): the part weighs as a shell of this wall;
+    #: its geometry stays the solid. None: a solid part.
+    hollow: float | None = None
     #: The part this colour block is painted on (``@paint``); "" for a part.
     block_of: str = ""
     #: A painted part's solid before its blocks were cut (what the part cache stores); b"" when
@@ -276,6 +282,8 @@ def to_json(model: CompiledModel, *, by_key: bool = False) -> dict[str, Any]:
                    "material": p.material, "detail": p.detail, "description": p.description,
                    "lines": list(p.lines), "reads": list(p.reads), "cache_key": p.cache_key,
                    "pieces": p.pieces,
+                   **({"mass": p.mass} if p.mass is not None else {}),
+                   **({"hollow": p.hollow} if p.hollow is not None else {}),
                    **({"block_of": p.block_of} if p.block_of else {}),
                    **({"unpainted": base64.b64encode(p.unpainted).decode("ascii")}
                       if p.unpainted else {})}

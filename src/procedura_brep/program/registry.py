@@ -35,6 +35,8 @@ class PartDecl:
     line: int
     end_line: int
     pieces: int = 1
+    mass: float | None = None  # kg, @part(mass=...)
+    hollow: float | None = None  # mm wall, @part(hollow=...)
 
 
 @dataclass

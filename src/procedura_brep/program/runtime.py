@@ -170,6 +170,7 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
                             f"{limits.max_parts} (config.SANDBOX.max_parts)", value=n_parts,
                limit=limits.max_parts)
     _check_materials(b, reg)
+    _check_hollow_paint(b, reg)
     if failed(b.findings):
         return CompiledModel(name, params, [], [], b.findings, b.timings)
     t = _lap(b, "exec_s", t0)
@@ -265,6 +266,17 @@ def _check_materials(b: _Build, reg: registry.Registry) -> None:
             b.fail("material", f"part {decl.name}: unknown material {decl.material!r:.60}; use one "
                                f"of: {', '.join(library)} (or declare it with material(...))",
                    part=decl.name, line=decl.line)
+
+
+def _check_hollow_paint(b: _Build, reg: registry.Registry) -> None:
+    """A ``hollow=`` part carries no ``@paint`` blocks (its shell would be split across solid
+    blocks); ``mass=`` is the way to weigh a painted part."""
+    for decl in reg.paints:
+        owner = reg.parts.get(decl.part)
+        if owner is not None and owner.hollow is not None:
+            b.fail("mass", f"part {owner.name}: hollow= cannot be combined with @paint blocks "
+                           f"({decl.name}); declare its mass with mass= instead",
+                   part=owner.name, line=owner.line)
 
 
 def _check_model_caps(b: _Build, reg: registry.Registry) -> None:
@@ -549,6 +561,7 @@ def _serialise(b: _Build, reg: registry.Registry, params: dict[str, Any],
                                   detail=decl.detail, description=decl.description,
                                   lines=(decl.line, decl.end_line), reads=_reads(decl, params, reg),
                                   cache_key=keys.get(name, ""), pieces=decl.pieces,
+                                  mass=decl.mass, hollow=decl.hollow,
                                   from_cache=name in b.cached_bytes))
     cms: list[CompiledMate] = []
     for m in mates:

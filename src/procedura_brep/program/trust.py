@@ -202,6 +202,8 @@ def _part(p: Any, i: int, library: dict[str, Material], rigid: _Rigid,
         lines=(_int(lines[0], f"{where}.lines"), _int(lines[1], f"{where}.lines")),
         reads=tuple(_name(r, f"{where}.reads", IDENT) for r in _list(p.get("reads", []), f"{where}.reads", 4096)),
         cache_key=key, pieces=_pieces(p.get("pieces", 1), f"{where}.pieces"),
+        mass=_positive(p.get("mass"), f"{where}.mass"),
+        hollow=_positive(p.get("hollow"), f"{where}.hollow"),
         block_of=block_of, unpainted=unpainted, from_cache=p.get("cached") is True)
 
 
@@ -225,6 +227,16 @@ def _b64(v: Any, where: str) -> bytes:
         return base64.b64decode(v, validate=True)
     except (binascii.Error, ValueError):
         raise _bad(where, "is not base64 text") from None
+
+
+def _positive(v: Any, where: str) -> float | None:
+    """An optional positive finite number (a declared mass or wall)."""
+    if v is None:
+        return None
+    n = _num(v, where, lo=0.0)
+    if n <= 0:
+        raise _bad(where, f"= {n:g} is not positive")
+    return n
 
 
 def _pieces(v: Any, where: str) -> int:
