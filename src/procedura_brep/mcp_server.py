@@ -10,9 +10,11 @@ server alive with its warm state.
 
 Every tool returns structured content (findings with their codes, measured values, paths) and
 a one-line text. Tools: ``new_program``, ``check``, ``build``, ``edit_params``, ``splice_part``,
-``render`` (images), ``simulate``, ``export``, ``mate_vocabulary``. Resource:
+``render`` (images), ``simulate``, ``export``, ``mate_vocabulary``. Resources:
 ``procedura-brep://reference`` (the program API and the mate vocabulary, as the model's build
-requests state them). A ``check`` of a program whose compiled geometry and text this server has
+requests state them) and ``procedura-brep://runs/{run}/<file>``: the report, mates, summary and
+sheet of a run directory this server built (``build`` lists the URIs; no other path is served).
+A ``check`` of a program whose compiled geometry and text this server has
 gated already is answered from its memory (:func:`_gates`).
 """
 
@@ -113,6 +115,50 @@ def _findings(data: dict[str, Any]) -> list[dict[str, Any]]:
     return [{k: v for k, v in f.items() if v is not None} for f in data.get("findings", [])]
 
 
+#: The run directories this server built, by the id its resources name them with
+#: (``procedura-brep://runs/{run}/{file}``); only these are served, never another path.
+_RUNS: dict[str, Path] = {}
+#: The files of a run directory served as resources, with their MIME types.
+RUN_FILES: dict[str, str] = {"report.json": "application/json", "mates.json": "application/json",
+                             "summary.md": "text/markdown", "sheet.png": "image/png"}
+
+
+def _run_id(out: Path) -> str:
+    """The resource id of a run directory: its name (``[a-z0-9_-]``), made unique."""
+    import re
+    for known, path in _RUNS.items():
+        if path == out.resolve():
+            return known
+    base = re.sub(r"[^a-z0-9_-]+", "_", out.name.lower()).strip("_") or "run"
+    rid, n = base, 1
+    while rid in _RUNS:
+        n += 1
+        rid = f"{base}_{n}"
+    _RUNS[rid] = out.resolve()
+    return rid
+
+
+def _run_resources(out: Path) -> dict[str, str]:
+    """``{file: resource URI}`` of the run directory's served files that exist."""
+    rid = _run_id(out)
+    return {f: f"procedura-brep://runs/{rid}/{f}" for f in RUN_FILES if (out / f).is_file()}
+
+
+def _run_file(file: str) -> Callable[[str], str | bytes]:
+    """The reader of one served file of the run directories this server built."""
+    from mcp.server.mcpserver.exceptions import ResourceNotFoundError
+
+    def read(run: str) -> str | bytes:
+        if run not in _RUNS:
+            known = ", ".join(sorted(_RUNS)) or "none yet: build one"
+            raise ResourceNotFoundError(f"unknown run {run!r}; this server built: {known}")
+        path = _RUNS[run] / file
+        if not path.is_file():
+            raise ResourceNotFoundError(f"{run} has no {file} (its build did not write it)")
+        return path.read_bytes() if file.endswith(".png") else path.read_text(encoding="utf-8")
+    return read
+
+
 def build_server() -> Any:
     """The MCP server with every tool and resource registered (``run("stdio")`` serves it)."""
     from mcp.server.mcpserver import MCPServer
@@ -201,7 +247,8 @@ def build_server() -> Any:
         return _result(f"{res.status}: {out}", {"ok": res.ok, "status": res.status, "out_dir": str(out),
                                                  "reason": res.reason if not res.ok else "",
                                                  "findings": [f.as_dict() for f in res.errors],
-                                                 "files": files}, error=not res.ok)
+                                                 "files": files, "resources": _run_resources(out)},
+                       error=not res.ok)
 
     @server.tool(description="Export a program's bundle (formats: step, obj, glb, usd, urdf, mjcf) "
                              "into a directory, without gating it.")
@@ -248,6 +295,11 @@ def build_server() -> Any:
     def reference() -> str:
         from .agent.prompts import part_format, reference
         return part_format() + "\n\n" + reference()
+
+    for file, mime in RUN_FILES.items():
+        server.resource(f"procedura-brep://runs/{{run}}/{file}", name=f"run {file}", mime_type=mime,
+                        description=f"{file} of a run directory this server built (the build "
+                                    f"tool's result lists the URIs)")(_run_file(file))
 
     return server
 
