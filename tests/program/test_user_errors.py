@@ -24,7 +24,7 @@ def test_unknown_material_fails_check_and_build_with_a_report(tmp_path):
     prog = _write(tmp_path, LAMP.replace('material="cast_iron"', 'material="unobtanium"'))
     res = runner.invoke(app, ["check", str(prog)])
     assert res.exit_code == 2, res.output
-    assert "part base: unknown material 'unobtanium'; use one of: steel" in res.output
+    assert "part base: unknown material 'unobtanium'" in res.output and "use one of: steel" in res.output
     out = tmp_path / "out"
     res = runner.invoke(app, ["build", str(prog), "-o", str(out), "--formats", "step"])
     assert res.exit_code in (1, 2) and "internal error" not in res.output, res.output
@@ -59,3 +59,11 @@ def test_a_part_named_like_a_param_is_a_user_error_not_a_dead_child(tmp_path):
     assert res.exit_code == 2, res.output
     assert "param base_t is rebound by a function of the same name" in res.output
     assert "exited without a result" not in res.output and "internal error" not in res.output
+
+
+def test_a_mistyped_material_gets_a_did_you_mean(tmp_path):
+    """Issue 26.4: part, param, mate and material names all get a "did you mean"."""
+    prog = _write(tmp_path, LAMP.replace('material="cast_iron"', 'material="cast_irn"'))
+    res = runner.invoke(app, ["check", str(prog)])
+    assert res.exit_code == 2, res.output
+    assert "part base: unknown material 'cast_irn' (did you mean 'cast_iron'?); use one of:" in res.output

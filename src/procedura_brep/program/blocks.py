@@ -138,7 +138,9 @@ def _paint_one(b: _Build, reg: Registry, mates: list[dict[str, Any]], decl: Pain
         fail(f"the name {decl.name!r} is also a part's; give the block its own name")
         return
     if not isinstance(decl.material, str) or decl.material not in reg.library:
-        fail(f"unknown material {decl.material!r:.60}; use one of: {', '.join(reg.library)} "
+        from ..text import did_you_mean
+        fail(f"unknown material {decl.material!r:.60}{did_you_mean(decl.material, reg.library)}; "
+             f"use one of: {', '.join(reg.library)} "
              f"(or declare it with material(...))")
         return
     if decl.part not in b.solids:

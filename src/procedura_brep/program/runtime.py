@@ -263,7 +263,9 @@ def _check_materials(b: _Build, reg: registry.Registry) -> None:
     library = reg.library
     for decl in reg.parts.values():
         if not isinstance(decl.material, str) or decl.material not in library:
-            b.fail("material", f"part {decl.name}: unknown material {decl.material!r:.60}; use one "
+            from ..text import did_you_mean
+            b.fail("material", f"part {decl.name}: unknown material {decl.material!r:.60}"
+                               f"{did_you_mean(decl.material, library)}; use one "
                                f"of: {', '.join(library)} (or declare it with material(...))",
                    part=decl.name, line=decl.line)
 
