@@ -15,6 +15,8 @@ from typing import Any
 #: or registers fonts from the file system.
 _DENY_SUBSTRINGS = ("import", "export", "Export", "Mesher", "Import", "FontManager", "fonts")
 _API = ("material", "part", "paint", "frames", "mate", "couple")
+#: Transmission geometry (:mod:`.gearing`): gears, racks, lead screws, pulleys.
+_GEARING = ("spur_gear", "ring_gear", "rack", "lead_screw", "lead_nut", "pulley")
 _LAZY = {"compile_source": ".sandbox", "Worker": ".sandbox", "CompileOptions": ".sandbox",
          "parse_sections": ".sections", "Sections": ".sections", "set_params": ".edit"}
 
@@ -38,10 +40,13 @@ def build123d_names() -> list[str]:
 
 def __getattr__(name: str) -> Any:
     if name == "__all__":
-        return [*_API, "math", *build123d_names()]
+        return [*_API, *_GEARING, "math", *build123d_names()]
     if name in _API:
         from . import api
         return getattr(api, name)
+    if name in _GEARING:
+        from . import gearing
+        return getattr(gearing, name)
     if name in _LAZY:
         import importlib
         return getattr(importlib.import_module(_LAZY[name], __name__), name)

@@ -72,7 +72,8 @@ _MISSING = object()
 @lru_cache(maxsize=1)
 def engine_digest() -> str:
     """Hash of the code that turns a part into its final solid (invalidates on upgrades of
-    this package, build123d or OCP)."""
+    this package, build123d, OCP or py_gearworks, and on any change of the mates or of the
+    transmission helpers, ``program/gearing.py``)."""
     import build123d
     import OCP
 
@@ -83,6 +84,14 @@ def engine_digest() -> str:
     here = Path(__file__).resolve().parent.parent / "mates"
     for path in sorted(here.rglob("*.py")):  # mate types, fits, feature macros, placement
         h.update(path.relative_to(here).as_posix().encode() + b"\0" + path.read_bytes())
+    # the transmission helpers (gears, racks, threads) and the gear library they call
+    from importlib.metadata import PackageNotFoundError, version
+    gearing = Path(__file__).resolve().parent / "gearing.py"
+    h.update(b"gearing.py\0" + gearing.read_bytes())
+    try:
+        h.update(f"py_gearworks {version('py_gearworks')}".encode())
+    except PackageNotFoundError:
+        h.update(b"py_gearworks ?")
     return h.hexdigest()
 
 
