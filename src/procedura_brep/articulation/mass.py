@@ -1,22 +1,34 @@
-"""Mass properties per link from exact part volumes and the model's material densities.
+"""Mass properties per part and per link, from exact volumes and the model's material densities.
 
-Each part's mass is ``volume * density`` with the density from
-the model's material library (``CompiledModel.materials``: the built-in table
-:data:`procedura_brep.materials.MATERIALS`, kg/m^3, e.g. steel 7850, aluminium 2700, ABS 1050,
-rubber 1200, plus the program's own ``material(...)`` declarations). Centre of mass and the inertia
-tensor about it come from OCCT's exact volume
-integrals; parts combine with the parallel-axis theorem. Results are in SI (kg, m, kg m^2) and
-expressed in the link frame. A link never has zero mass or a singular inertia: tiny values are
-floored at :data:`MIN_MASS_KG` / :data:`MIN_INERTIA_KGM2`.
+A part's mass is, by its ``@part`` declaration:
+
+* ``solid`` (the default): ``volume * density``, the density from the model's material library
+  (``CompiledModel.materials``: the built-in table :data:`procedura_brep.materials.MATERIALS`,
+  kg/m^3, e.g. steel 7850, aluminium 2700, ABS 1050, rubber 1200, plus the program's own
+  ``material(...)`` declarations);
+* ``declared`` (``mass=kg``): the solid's properties with the density scaled so the part (with
+  its ``@paint`` blocks, each keeping its share) weighs what it declares; centre of mass and
+  the shape of the inertia stay the solid's;
+* ``shell-exact`` / ``shell-approx`` (``hollow=wall``): the part as a shell of that wall, of its
+  material (:mod:`.shell`: exact where OCCT's offset works, else the thin-shell
+  approximation; a wall not under the part's half-thickness is weighed ``solid``, with a note).
+
+Centre of mass and the inertia tensor about it come from OCCT's exact volume (or surface)
+integrals; parts combine with the parallel-axis theorem. Results are in SI (kg, m, kg m^2);
+:func:`part_mass` is in world coordinates, :func:`link_masses` in each link frame. A link never
+has zero mass or a singular inertia: tiny values are floored at :data:`MIN_MASS_KG` /
+:data:`MIN_INERTIA_KGM2`. :func:`mass_report` is ``report.json``'s ``masses`` section.
 """
-
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from ..program.model import CompiledModel
+from ..findings import Finding
+from ..program.model import CompiledModel, CompiledPart
+from .shell import Integrals, Method, shell, volume_integrals
 from .tree import Articulation
 
 #: Smallest mass written for any link (kg).
@@ -47,23 +59,54 @@ class MassProps:
         return w, v
 
 
+@dataclass(frozen=True)
+class PartMass:
+    """One part's mass properties (world, SI) and how they were had.
+
+    Attributes:
+        props: mass (kg), centre of mass (m, world), inertia about it (kg m^2, world).
+        method: ``solid`` | ``declared`` | ``shell-exact`` | ``shell-approx``.
+        density: the material's density, kg/m^3.
+        note: why the method differs from what the part asked for ("" when it does not).
+    """
+
+    props: MassProps
+    method: Method
+    density: float
+    note: str = ""
+
+
 def part_mass(model: CompiledModel, name: str) -> MassProps:
     """A part's mass properties in WORLD coordinates (kg, m, kg m^2)."""
-    from OCP.BRepGProp import BRepGProp
-    from OCP.GProp import GProp_GProps
+    return part_mass_detail(model, name).props
 
+
+def part_mass_detail(model: CompiledModel, name: str) -> PartMass:
+    """A part's mass properties in WORLD coordinates with the method that gave them."""
     part = model.part(name)
-    rho = model.material_of(part).density * 1e-9  # kg / mm^3
-    props = GProp_GProps()
-    BRepGProp.VolumeProperties_s(part.shape(), props)
-    vol = abs(float(props.Mass()))
-    c = props.CentreOfMass()
-    m = props.MatrixOfInertia()
-    inertia = np.array([[m.Value(i, j) for j in (1, 2, 3)] for i in (1, 2, 3)])
-    if props.Mass() < 0:
-        inertia = -inertia
-    return MassProps(vol * rho, np.array([c.X(), c.Y(), c.Z()]) / 1000.0,
-                     inertia * rho * 1e-6)
+    density = model.material_of(part).density
+    rho = density * 1e-9  # kg / mm^3
+    owner = model.part(part.block_of) if part.block_of else part
+    if owner.mass is not None:
+        pieces = [p for p in model.parts if p.owner == owner.name]
+        total = sum(model.material_of(p).density * 1e-9 * _solid(p).volume for p in pieces)
+        rho = owner.mass / total * rho if total > 0 else 0.0
+        return PartMass(_world(_solid(part), part, rho), "declared", density)
+    if part.hollow is not None:
+        got = shell(part.brep, part.local_shape(), part.hollow)
+        return PartMass(_world(got, part, rho), got.method, density, got.note)
+    return PartMass(_world(_solid(part), part, rho), "solid", density)
+
+
+def _solid(part: CompiledPart) -> Integrals:
+    return volume_integrals(part.local_shape())
+
+
+def _world(i: Integrals, part: CompiledPart, rho: float) -> MassProps:
+    """Local integrals (mm) times ``rho`` (kg/mm^3), placed in the world (SI)."""
+    r, t = part.placement[:3, :3], part.placement[:3, 3]
+    com = (r @ i.com + t) / 1000.0
+    return MassProps(i.volume * rho, com, r @ i.inertia @ r.T * rho * 1e-6)
 
 
 def combine(items: list[MassProps]) -> MassProps:
@@ -71,7 +114,7 @@ def combine(items: list[MassProps]) -> MassProps:
     mass = sum(i.mass for i in items)
     if mass <= 0:
         return MassProps(0.0, np.zeros(3), np.zeros((3, 3)))
-    com = sum(i.mass * i.com for i in items) / mass
+    com: np.ndarray = np.sum([i.mass * i.com for i in items], axis=0) / mass
     inertia = np.zeros((3, 3))
     for i in items:
         d = i.com - com
@@ -107,3 +150,31 @@ def link_masses(model: CompiledModel, art: Articulation) -> dict[str, MassProps]
         world = combine([part_mass(model, n) for n in lk.parts])
         out[lk.name] = floored(to_frame(world, lk.frame))
     return out
+
+
+def mass_report(model: CompiledModel) -> tuple[dict[str, Any], list[Finding]]:
+    """``report.json``'s ``masses`` section (world frame, SI) and its findings (a ``hollow=``
+    weighed otherwise than asked: a warning naming the part)."""
+    rows: list[dict[str, Any]] = []
+    props: list[MassProps] = []
+    findings: list[Finding] = []
+    for p in model.parts:
+        pm = part_mass_detail(model, p.name)
+        props.append(pm.props)
+        row: dict[str, Any] = {"name": p.name, "material": p.material, "density_kg_m3": pm.density,
+                               "method": pm.method, "mass_kg": pm.props.mass,
+                               "com_m": pm.props.com.tolist(), "inertia_kg_m2": pm.props.inertia.tolist()}
+        if p.mass is not None:
+            row["declared_kg"] = p.mass
+        if p.hollow is not None:
+            row["hollow_mm"] = p.hollow
+        if pm.note:
+            row["note"] = pm.note
+            if pm.method == "solid":
+                findings.append(Finding("part-hollow", f"part {p.name}: {pm.note}", part=p.name,
+                                        value=p.hollow, severity="warning"))
+        rows.append(row)
+    total = combine(props)
+    return ({"frame": "world", "units": {"mass": "kg", "length": "m", "inertia": "kg m^2"},
+             "parts": rows, "total": {"mass_kg": total.mass, "com_m": total.com.tolist(),
+                                      "inertia_kg_m2": total.inertia.tolist()}}, findings)

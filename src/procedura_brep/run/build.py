@@ -258,7 +258,8 @@ def _build_into(run: _Run, source: str, name: str, fmts: tuple[str, ...], *, gat
     run.sections.update(out["sections"])
     gate_errors = [Finding.from_dict(f) for f in out["gate_errors"]]
     battery = [Finding.from_dict(f) for f in out["battery_findings"]]
-    result.findings += [*gate_errors, *battery]
+    masses = [Finding.from_dict(f) for f in out.get("mass_findings", [])]
+    result.findings += [*gate_errors, *masses, *battery]
     status = (Status.GATES_FAILED if failed(gate_errors) else
               Status.BATTERY_FAILED if failed(battery) else Status.OK)
     if out["exported"] and "sheet.png" not in out["files"]:  # this process holds the GL context
@@ -298,6 +299,7 @@ def verify_and_export(model: CompiledModel, source: str, root: Path, fmts: tuple
     sections: dict[str, Any] = {}
     gate_errors: list[Finding] = []
     battery: list[Finding] = []
+    masses = _masses(model, sections, timings)  # before any fork: its children inherit the shells
     ahead = None
     if gates and OVERLAP_EXPORT:
         from .overlap import start_export
@@ -336,7 +338,20 @@ def verify_and_export(model: CompiledModel, source: str, root: Path, fmts: tuple
             battery = bv.findings
     return {"files": files, "timings": timings, "sections": sections, "exported": exported,
             "gate_errors": [f.as_dict() for f in gate_errors],
-            "battery_findings": [f.as_dict() for f in battery]}
+            "battery_findings": [f.as_dict() for f in battery],
+            "mass_findings": [f.as_dict() for f in masses]}
+
+
+def _masses(model: CompiledModel, sections: dict[str, Any], timings: dict[str, float]) -> list[Finding]:
+    """The report's ``masses`` section (per part and total, world, SI); its findings."""
+    from ..articulation.mass import mass_report
+    t = time.perf_counter()
+    try:
+        sections["masses"], found = mass_report(model)
+    except ProceduraError as exc:  # a part's BRep or material the kernel cannot read
+        found = [Finding("masses", f"mass properties not computed: {exc}", severity="warning")]
+    timings["masses_s"] = time.perf_counter() - t
+    return found
 
 
 

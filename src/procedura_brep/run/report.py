@@ -124,6 +124,7 @@ def summary_md(report: Mapping[str, Any], out_dir: Any) -> str:
     if mates:
         rows += ["| mate | type | child | parent |", "|---|---|---|---|"]
         rows += [f"| {m.get('name')} | {m.get('type')} | {m.get('child')} | {m.get('parent')} |" for m in mates]
+    rows += masses_md(report.get("masses"))
     findings = report.get("findings") or []
     rows += ["", "## Findings", ""]
     rows += [f"- [{f.get('severity', 'error')}] {f.get('code')}: {f.get('message')}" for f in findings] or ["none"]
@@ -139,6 +140,24 @@ def summary_md(report: Mapping[str, Any], out_dir: Any) -> str:
             if k in timings]
     rows += ["", "## Timings", ""] + [f"- {k[:-2]}: {float(timings[k]):.2f} s" for k in keys]
     return "\n".join(rows) + "\n"
+
+
+def masses_md(masses: Any) -> list[str]:
+    """The summary's mass table (from the report's ``masses`` section): each part's method,
+    mass and centre of mass, and the total; no rows when the report has no masses."""
+    if not isinstance(masses, Mapping) or not masses.get("parts"):
+        return []
+
+    def com(c: Any) -> str:
+        return "(" + ", ".join(f"{float(x):.3f}" for x in c or ()) + ")"
+
+    rows = ["", "## Masses", "", "| part | method | mass (kg) | centre of mass (m, world) |",
+            "|---|---|---|---|"]
+    rows += [f"| {p.get('name')} | {p.get('method')} | {float(p.get('mass_kg') or 0):.4g} | "
+             f"{com(p.get('com_m'))} |" for p in masses["parts"]]
+    total = masses.get("total") or {}
+    rows.append(f"| total | | {float(total.get('mass_kg') or 0):.4g} | {com(total.get('com_m'))} |")
+    return rows
 
 
 def write_summary(out_dir: Any, report: Mapping[str, Any]) -> None:
