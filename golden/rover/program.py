@@ -14,6 +14,7 @@ body_w = 300.0        # mm, chassis width along Y
 body_h = 160.0        # mm, chassis height
 body_r = 24.0         # mm, fillet radius of the chassis' vertical edges
 deck_pocket = 3.0     # mm, depth of the service-lid pocket in the top deck
+body_wall = 2.5       # mm, chassis shell wall: it weighs as an aluminium box, not a solid block
 pivot_z = 80.0        # mm, height of the rocker pivots above the chassis floor
 pivot_boss_d = 44.0   # mm, diameter of the chassis' rocker-pivot bosses
 pivot_boss_l = 15.0   # mm, how far each pivot boss stands out of the chassis side
@@ -238,7 +239,7 @@ def lens():
 
 
 # === parts ===
-@part(detail="silhouette", material="painted_aluminium",
+@part(detail="silhouette", material="painted_aluminium", hollow=body_wall,
       description="520 x 300 x 160 mm chassis box, rounded corners, rocker pivot bosses on both sides")
 def chassis():
     body = Box(body_l, body_w, body_h, align=bottom())
