@@ -152,7 +152,7 @@ def test_a_slow_offset_is_cut_at_the_wall_clock_limit(monkeypatch):
 
 
 def test_a_wrong_offset_is_checked_not_trusted():
-    # a box with a through hole: OCCT 7.8's inward offset of it is not a valid shape (its
+    # a box with a through hole: OCCT 8.0.1's inward offset of it is not a valid shape (its
     # volume is the hole's alone); the shell falls back to area x wall and says why
     body = Box(100, 100, 100) - Pos(30, 0, 0) * Cylinder(10, 100)
     p = cpart("box", body)
