@@ -249,3 +249,19 @@ def test_a_run_resumed_at_finish_keeps_its_refine_and_articulation_reports(run, 
     report = json.loads((again / "report.json").read_text())
     assert report["articulation"] == first["articulation"]
     assert report["refine"] == first["refine"]
+
+
+def test_a_coupled_joint_gets_no_drive_and_the_evidence_lists_couplings(worker):
+    """Issue 27.5: the articulation stage plans drives for drivers only."""
+    from procedura_brep.agent.articulation_plan import evidence_text
+    from procedura_brep.program import compile_source
+    model = compile_source((LAMP.parent / "transmission.py").read_text(), name="t", worker=worker)
+    assert model.ok, model.findings
+    ok = parse_articulation(json.dumps({"joints": [{"mate": "pinion_hub", "drive": "position"},
+                                                   {"mate": "wheel_hub", "limits": [-90, 90]}]}), model)
+    assert [(e.mate, e.drive) for e in ok.edits] == [("pinion_hub", "position"), ("wheel_hub", None)]
+    with pytest.raises(ArticulationPlanError, match="joints wheel_hub: it follows pinion_hub through a "
+                                                    "coupling, so it gets no drive of its own"):
+        parse_articulation(json.dumps({"joints": [{"mate": "wheel_hub", "drive": "position"}]}), model)
+    text = evidence_text(model, {"parts": {}, "contacts": []}, None)
+    assert "## Couplings" in text and "- wheel_hub follows pinion_hub: gear, ratio -0.333333" in text

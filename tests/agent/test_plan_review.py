@@ -136,3 +136,33 @@ def test_a_plan_mate_can_ask_for_no_features():
     with pytest.raises(PlanError, match="features must be true or false"):
         parse_plan({"parts": [data["parts"][0], {**data["parts"][1], "mates": [
             {"partner": "rail", "type": "prismatic", "nominal": "rail_w", "features": "no"}]}]})
+
+
+def test_a_plan_may_couple_a_driven_part_to_its_driver():
+    """Issue 27.5: a driven part names its driver and the transmission; the build request of
+    each says who writes the couple(...) and what to share."""
+    from procedura_brep.agent.context import part_slice
+    gears = [part("housing", detail="silhouette"), part("pinion", "housing", mtype="revolute"),
+             {**part("wheel", "housing", mtype="revolute"), "couple": {"driver": "pinion", "type": "gear"}}]
+    p = plan(gears)
+    assert p.part("wheel").couple.as_dict() == {"driver": "pinion", "type": "gear"}
+    assert p.as_dict()["parts"][2]["couple"] == {"driver": "pinion", "type": "gear"}
+    wheel, pinion = part_slice(p, p.part("wheel")), part_slice(p, p.part("pinion"))
+    assert "Its first joint follows pinion's (gear): after its mate, write couple(" in wheel
+    assert "Later parts whose joints it drives: wheel (gear)" in pinion
+    # every problem at once: a driver not in the plan, a type not in the vocabulary, a static joint
+    bad = [gears[0], part("cover", "housing"),
+           {**part("wheel", "housing", mtype="revolute"), "couple": {"driver": "pinon", "type": "gear"}},
+           {**part("nut", "housing", mtype="prismatic"), "couple": {"driver": "wheel", "type": "worm"}},
+           {**part("cap", "housing"), "couple": {"driver": "cover", "type": "belt"}}]
+    with pytest.raises(PlanError) as exc:
+        plan(bad)
+    text = str(exc.value)
+    assert "couple driver 'pinon' is not another part of the plan" in text
+    assert "couple type 'worm' is not one of gear, rack_pinion, screw, belt" in text
+    assert "needs the driven part cap's first mate to be a kinematic joint" in text
+    assert "needs the driver part cover's first mate to be a kinematic joint" in text
+    # a driver listed after the part it drives (and not reordered by the mates) is refused
+    late = [gears[0], gears[2], gears[1]]
+    with pytest.raises(PlanError, match="part wheel: its driver 'pinion' must come before it"):
+        plan(late)

@@ -208,3 +208,28 @@ def test_replace_part_may_change_a_param_only_it_reads():
     assert replace_part(two, POST.replace("spigot_d = 12.0", "spigot_d = 14.0")).changed_params == ["spigot_d"]
     with pytest.raises(SpliceError, match="base_t = 10.0 clashes"):  # the base reads it
         replace_part(two, POST.replace("### Params\n", "### Params\nbase_t = 10.0  # mm\n"))
+
+
+def test_a_coupling_splices_with_its_driven_part_and_leaves_with_it(worker):
+    """Issue 27.5: a part reply's mates block may hold couple(...) calls whose driven mate is
+    the part's own; splicing the transmission program part by part builds the same couplings,
+    and replacing the driven part replaces its coupling (no duplicate)."""
+    source = (Path(__file__).parent / "transmission.py").read_text()
+    program = empty_program("A pinion, a wheel, a rack, a screw and a nut.")
+    replies = part_replies(source)
+    wheel = next(r for r in replies if "def wheel()" in r)
+    assert 'couple("wheel_hub", "pinion_hub", "gear"' in wheel
+    for reply in replies:
+        program = splice(program, reply).source
+    want, got = worker.compile(source), worker.compile(program)
+    assert got.ok, [f.message for f in got.findings]
+    def rows(model):
+        return [{k: v for k, v in c.as_dict().items() if k != "line"} for c in model.couplings]
+    assert rows(got) == rows(want) and len(rows(got)) == 3
+    again = replace_part(program, wheel).source
+    assert again.count('couple("wheel_hub"') == 1 and worker.compile(again).ok
+    # a coupling in another part's reply is refused, naming whose mate it drives
+    stray = wheel.replace('couple("wheel_hub"', 'couple("nut_slide"', 1)
+    with pytest.raises(SpliceError, match="couple\\('nut_slide', ...\\) must follow a mate of part "
+                                          "'wheel'.*'nut_slide' is a mate of 'nut'"):
+        replace_part(program, stray)

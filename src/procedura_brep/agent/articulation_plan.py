@@ -94,7 +94,7 @@ def _number(x: Any) -> bool:
 
 
 def _entry(item: Any, where: str, mates: dict[str, CompiledMate], promote: bool,
-           problems: list[str]) -> JointEdit | None:
+           problems: list[str], driven: dict[str, str] | None = None) -> JointEdit | None:
     if not isinstance(item, dict) or not isinstance(item.get("mate"), str):
         problems.append(f"{where}: each entry is an object with a \"mate\" name")
         return None
@@ -131,6 +131,9 @@ def _entry(item: Any, where: str, mates: dict[str, CompiledMate], promote: bool,
         else:
             opts[key] = float(v)
     drive = item.get("drive")
+    if drive is not None and driven and name in driven:
+        problems.append(f"{where} {name}: it follows {driven[name]} through a coupling, so it gets "
+                        f"no drive of its own (drive {driven[name]}); leave drive out")
     if drive is not None and drive not in DRIVES:
         problems.append(f"{where} {name}: drive must be one of {', '.join(DRIVES)}, got {drive!r}")
     jtype = new_type or m.type
@@ -163,6 +166,7 @@ def parse_articulation(text: str, model: CompiledModel) -> ArticulationPlan:
     if extra:
         problems.append(f"unknown key(s) {', '.join(extra)}; keys: {', '.join(PLAN_KEYS)}")
     mates = {m.name: m for m in model.mates}
+    driven = {c.driven: c.driver for c in model.couplings}
     edits: list[JointEdit] = []
     for key, promote in (("joints", False), ("promote", True)):
         items = data.get(key, [])
@@ -170,7 +174,7 @@ def parse_articulation(text: str, model: CompiledModel) -> ArticulationPlan:
             problems.append(f"{key} must be a list")
             continue
         for item in items:
-            e = _entry(item, key, mates, promote, problems)
+            e = _entry(item, key, mates, promote, problems, driven)
             if e is not None:
                 edits.append(e)
     seen: set[str] = set()
@@ -252,6 +256,11 @@ def evidence_text(model: CompiledModel, evidence: dict[str, Any], art: Articulat
         opts = {k: v for k, v in m.options.items() if k in (*JOINT_OPTIONS, "angle_limits")}
         rows.append(f"- {m.name}: {m.type} ({m.kind}) child {m.child} parent {m.parent}, anchor "
                     f"{_vec(f[:3, 3])}, axis {_vec(f[:3, 2])}" + (f", {json.dumps(opts)}" if opts else ""))
+    couplings = list(model.couplings)
+    if couplings:
+        rows.append("## Couplings (a driven joint follows its driver: plan limits for both, a "
+                    "drive for the driver only)")
+        rows += [f"- {c.driven} follows {c.driver}: {c.type}, ratio {c.ratio:.6g}" for c in couplings]
     if art is not None:
         rows.append("## Links and joints now")
         rows += [f"- link {lk.name}: {', '.join(lk.parts)}" for lk in art.links]

@@ -118,6 +118,17 @@ def part_slice(plan: Plan, part: PlannedPart) -> str:
                         "there, it only places the part: model the contact surfaces yourself)")
     else:
         rows.append("It is the root: it mates to nothing; publish the frames later parts need.")
+    if part.couple is not None:
+        c = part.couple
+        rows.append(f"Its first joint follows {c.driver}'s ({c.type}): after its mate, write "
+                    f"couple(\"<its mate's name>\", \"<{c.driver}'s mate name>\", \"{c.type}\", ...) "
+                    f"with every number named by a param (couple in the reference); size the teeth, "
+                    f"lead or pulleys from those same params.")
+    drivers = [p for p in later if p.couple is not None and p.couple.driver == part.name]
+    if drivers:
+        rows.append("Later parts whose joints it drives: " +
+                    ", ".join(f"{p.name} ({p.couple.type})" for p in drivers)  # type: ignore[union-attr]
+                    + "; name its tooth count, module, lead or pitch diameter as params they can share.")
     kids = [p for p in later if part.name in p.partners]
     if kids:
         rows.append("Later parts that mate to it (publish frames for them): " +

@@ -70,6 +70,18 @@ class PlannedMate:
 
 
 @dataclass(frozen=True)
+class PlannedCoupling:
+    """The driven part's joint (its first mate) follows the driver part's (the driver's first
+    mate) through a transmission of ``type`` (``program.couplings.SPECS``)."""
+
+    driver: str
+    type: str
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"driver": self.driver, "type": self.type}
+
+
+@dataclass(frozen=True)
 class PlannedPart:
     """One part of the plan."""
 
@@ -77,14 +89,18 @@ class PlannedPart:
     detail: Detail
     description: str
     mates: tuple[PlannedMate, ...] = ()
+    couple: PlannedCoupling | None = None
 
     @property
     def partners(self) -> tuple[str, ...]:
         return tuple(m.partner for m in self.mates)
 
     def as_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "detail": self.detail, "description": self.description,
-                "mates": [m.as_dict() for m in self.mates]}
+        row: dict[str, Any] = {"name": self.name, "detail": self.detail,
+                               "description": self.description, "mates": [m.as_dict() for m in self.mates]}
+        if self.couple is not None:
+            row["couple"] = self.couple.as_dict()
+        return row
 
 
 @dataclass(frozen=True)
@@ -221,15 +237,23 @@ def parse_plan(text: str | dict[str, Any], *, mate_types: tuple[str, ...] | None
                 bad = True
             if not bad:
                 mates.append(PlannedMate(partner, mtype, nominal, feats))
-        parts.append(PlannedPart(name, detail if detail in DETAILS else "major", desc.strip(), tuple(mates)))
+        couple = _couple(row.get("couple"), where, problems)
+        parts.append(PlannedPart(name, detail if detail in DETAILS else "major", desc.strip(),
+                                 tuple(mates), couple))
     names = {p.name for p in parts}
     for p in parts:
         for m in p.mates:
             if m.partner not in names:
                 problems.append(f"part {p.name}: mate partner {m.partner!r} is not in the plan")
+    problems += _coupling_problems(parts)
     if problems:
         raise PlanError(problems)
     ordered, notes = topological(parts)
+    pos = {p.name: i for i, p in enumerate(ordered)}
+    late = [p for p in ordered if p.couple is not None and pos[p.couple.driver] > pos[p.name]]
+    if late:
+        raise PlanError([f"part {p.name}: its driver {p.couple.driver!r} must come before it "  # type: ignore[union-attr]
+                         f"(list the driver first)" for p in late])
     root = ordered[0]
     if root.mates:
         raise PlanError([f"part {root.name}: the root (first part) mates to nothing"])
@@ -238,6 +262,48 @@ def parse_plan(text: str | dict[str, Any], *, mate_types: tuple[str, ...] | None
         raise PlanError([f"part {n}: every part but the root needs a mate to an earlier part"
                          for n in unmated])
     return Plan(tuple(ordered), tuple(notes))
+
+
+def _couple(raw: Any, where: str, problems: list[str]) -> PlannedCoupling | None:
+    """A part's ``"couple"`` entry (absent: None); problems are appended."""
+    if raw is None:
+        return None
+    from ..program.couplings import SPECS
+    if not isinstance(raw, dict):
+        problems.append(f'{where}: couple must be an object {{"driver": "<part>", "type": "gear"}}')
+        return None
+    driver, ctype = raw.get("driver"), raw.get("type")
+    ok = True
+    if not isinstance(driver, str) or not NAME_RE.fullmatch(driver):
+        problems.append(f"{where}: couple driver {driver!r} is not a part name")
+        ok = False
+    if ctype not in SPECS:
+        problems.append(f"{where}: couple type {ctype!r} is not one of {', '.join(SPECS)}")
+        ok = False
+    return PlannedCoupling(driver, ctype) if ok else None  # type: ignore[arg-type]  # checked above
+
+
+def _coupling_problems(parts: list[PlannedPart]) -> list[str]:
+    """Each coupling's driver is another part of the plan, and both first mates are kinematic."""
+    from ..mates import TYPES
+    by_name = {p.name: p for p in parts}
+    out: list[str] = []
+
+    def moves(p: PlannedPart) -> bool:
+        return bool(p.mates) and p.mates[0].type in TYPES and TYPES[p.mates[0].type].kind != "static"
+    for p in parts:
+        c = p.couple
+        if c is None:
+            continue
+        driver = by_name.get(c.driver)
+        if driver is None or driver is p:
+            out.append(f"part {p.name}: couple driver {c.driver!r} is not another part of the plan")
+            continue
+        for q, role in ((p, "driven"), (driver, "driver")):
+            if not moves(q):
+                out.append(f"part {p.name}: couple {c.type} needs the {role} part {q.name}'s first "
+                           f"mate to be a kinematic joint (revolute, prismatic ...)")
+    return out
 
 
 def topological(parts: list[PlannedPart]) -> tuple[list[PlannedPart], list[str]]:

@@ -32,8 +32,9 @@ def reference() -> str:
     from ..mates import TYPES
     from ..program import api
     out = ["## The program API", inspect.cleandoc(api.__doc__ or "")]
-    for fn in (api.material, api.part, api.paint, api.frames, api.mate):
+    for fn in (api.material, api.part, api.paint, api.frames, api.mate, api.couple):
         out.append(f"### {fn.__name__}{inspect.signature(fn)}\n{inspect.cleandoc(fn.__doc__ or '')}")
+    out.append(gearing_reference())
     out.append("## Mate types (type: DOF; fits, default first; every option: default, range, meaning)")
     for t in TYPES.values():
         fits = ", ".join([t.default_fit] + [f for f in t.fits if f != t.default_fit])
@@ -41,10 +42,34 @@ def reference() -> str:
         rows += [f"    - {option_line(k, o)}" for k, o in t.options.items()]
         out.append("\n".join(rows))
     out.append(conventions())
-    out.append("## Built-in materials (key: class, density kg/m^3; parts are solid, so masses follow; "
-               "declare others with material(...))\n" + ", ".join(
+    out.append("## Built-in materials (key: class, density kg/m^3; a part weighs its solid unless it "
+               "declares @part(hollow=wall) or @part(mass=kg); declare others with material(...))\n"
+               + ", ".join(
                    f"{m.name} ({m.material_class}, {m.density:g})" for m in materials.MATERIALS.values()))
     return "\n\n".join(out)
+
+
+#: What the coupling gate checks, as the model's requests state it (docs/gates.md has the rest).
+COUPLING_GATE = (
+    "The coupling gate checks every couple(...): a gear pair's axes are parallel and their "
+    "distance is (z1 + z2) * m / 2 (external) or (z2 - z1) * m / 2 (internal) within the fit's "
+    "backlash; a rack's pitch line touches the pinion's pitch circle; a screw and its nut are "
+    "coaxial; meshing teeth do not interfere at rest, nor over one tooth pitch of the coupled "
+    "motion. Findings name the pair and the numbers. So place gears by their pitch radii (m z / 2) "
+    "from params, and make the tooth counts and module the params couple(...) names.")
+
+
+def gearing_reference() -> str:
+    """The transmission geometry helpers (``program/gearing.py``) as the model's requests state
+    them: each signature and its docstring's first paragraph, then what the coupling gate checks."""
+    from ..program import gearing
+    rows = ["## Transmission helpers (real teeth and threads; each around its own origin, axis +Z, "
+            "returns one solid)"]
+    for name in ("spur_gear", "ring_gear", "rack", "lead_screw", "lead_nut", "pulley"):
+        fn = getattr(gearing, name)
+        doc = inspect.cleandoc(fn.__doc__ or "").split("\n\n")[0].replace("\n", " ")
+        rows.append(f"- {name}{inspect.signature(fn)}: {doc}")
+    return "\n".join(rows) + "\n\n" + COUPLING_GATE
 
 
 def option_line(name: str, opt: Any) -> str:

@@ -258,7 +258,8 @@ class StagedRun:
                 continue
             if lost:
                 part = PlannedPart(part.name, part.detail, part.description,
-                                   tuple(m for m in part.mates if m.partner not in skipped))
+                                   tuple(m for m in part.mates if m.partner not in skipped),
+                                   part.couple if part.couple and part.couple.driver not in skipped else None)
             self._build_part(system, plan, part)
         if not self.state.committed:
             raise StagedError("no part could be built")

@@ -215,14 +215,34 @@ def _call_name(stmt: ast.AST) -> str | None:
     return None
 
 
-def _owner(section: str, stmt: ast.stmt) -> str | None:
-    """The part a top-level statement of a section belongs to."""
+def _owner(section: str, stmt: ast.stmt, mates: Mapping[str, str] | None = None) -> str | None:
+    """The part a top-level statement of a section belongs to: a part's function, its
+    ``frames(...)``, the ``mate(...)`` whose child it is, and a ``couple(...)`` whose driven mate
+    is one of its mates (``mates``: mate name -> child part, :func:`mate_children`)."""
     if section == "parts":
         return stmt.name if isinstance(stmt, ast.FunctionDef) else None
     first = _string_arg(stmt)
     if first is None:
         return None
+    if section == "assembly" and _call_name(stmt) == "couple":
+        return (mates or {}).get(first)
     return first.split(".")[0] if section == "assembly" else first
+
+
+def mate_children(stmts: list[ast.stmt]) -> dict[str, str]:
+    """Mate name -> child part of the ``mate(...)`` calls among ``stmts`` (the name is the
+    ``name=`` keyword, else ``"child.frame"`` with the dot as an underscore, as the compiler
+    names it)."""
+    out: dict[str, str] = {}
+    for stmt in stmts:
+        child = _string_arg(stmt)
+        if _call_name(stmt) != "mate" or child is None:
+            continue
+        call = stmt.value  # type: ignore[attr-defined]  # an Expr of a Call: _string_arg checked
+        named = [k.value.value for k in call.keywords if k.arg == "name"
+                 and isinstance(k.value, ast.Constant) and isinstance(k.value.value, str)]
+        out[named[0] if named else child.replace(".", "_")] = child.split(".")[0]
+    return out
 
 
 def _is_part_def(stmt: ast.stmt) -> TypeGuard[ast.FunctionDef]:
@@ -273,12 +293,17 @@ class _Program:
         lo, hi = self.starts[section], self.section_end(section)
         return [s for s in self.tree.body if lo < s.lineno <= hi]
 
+    @property
+    def mate_children(self) -> dict[str, str]:
+        """Mate name -> child part of every mate of the program."""
+        return mate_children(self.statements("assembly"))
+
     def insertion_line(self, section: str, before: set[str]) -> int:
         """The line after which a new part's statements go in ``section``: after the last
         statement owned by a part in ``before`` (the parts that precede it in plan order), or at
         the section's end when ``before`` is every part."""
         stmts = self.statements(section)
-        owned = [s for s in stmts if _owner(section, s) in before]
+        owned = [s for s in stmts if _owner(section, s, self.mate_children) in before]
         if set(self.parts) <= before or not stmts:
             last = self.section_end(section)
             while last > self.starts[section] and not self.lines[last - 1].strip():
@@ -336,9 +361,10 @@ def replace_part(program: str, reply: PartReply | str) -> SpliceResult:
         raise SpliceError(f"cannot replace part {name!r}: not in the program; parts: {', '.join(prog.parts)}",
                           block="body")
     drop: set[int] = set()
+    mates = prog.mate_children
     for section in ("parts", "frames", "assembly"):
         for stmt in prog.statements(section):
-            if _owner(section, stmt) == name:
+            if _owner(section, stmt, mates) == name:
                 first = min([stmt.lineno] + [d.lineno for d in getattr(stmt, "decorator_list", [])])
                 drop.update(range(first, (stmt.end_lineno or stmt.lineno) + 1))
     kept = "\n".join(t for i, t in enumerate(prog.lines, start=1) if i not in drop)
@@ -387,7 +413,7 @@ def splice(program: str, reply: PartReply | str, *, after: str | None = None,
               set(prog.parts if after is None else prog.parts[:prog.parts.index(after) + 1]))
     params = _merge_params(trees, prog, blocks, may_change)
     renames, keep_helpers, dropped_helpers = _merge_helpers(trees, prog, name)
-    _check_owned(trees, name)
+    _check_owned(trees, name, {**prog.mate_children, **mate_children(trees["mates"].body)})
     texts = _block_texts(blocks, trees, params.keep, keep_helpers, renames, part)
     source = _insert(prog, texts, before, params.updates)
     try:
@@ -483,15 +509,25 @@ def _merge_helpers(trees: dict[str, ast.Module], prog: _Program,
     return renames, keep, dropped
 
 
-def _check_owned(trees: dict[str, ast.Module], name: str) -> None:
-    """The frames and mates blocks hold only ``frames(...)`` / ``mate(...)`` calls of part
-    ``name``, and it publishes at least one frame."""
+def _check_owned(trees: dict[str, ast.Module], name: str, mates: Mapping[str, str]) -> None:
+    """The frames block holds only ``frames(...)`` calls of part ``name``, the mates block only
+    its ``mate(...)`` calls and ``couple(...)`` calls whose driven mate is one of its mates
+    (``mates``: mate name -> child, the program's and the block's), and it publishes at least
+    one frame."""
     for section, block in (("frames", "frames"), ("assembly", "mates")):
         for stmt in trees[block].body:
-            if _call_name(stmt) != ("frames" if block == "frames" else "mate"):
-                raise SpliceError(f"holds only {'frames' if block == 'frames' else 'mate'}(...) calls",
+            call = _call_name(stmt)
+            if call not in (("frames",) if block == "frames" else ("mate", "couple")):
+                raise SpliceError("holds only frames(...) calls" if block == "frames" else
+                                  "holds only mate(...) and couple(...) calls",
                                   block=block, line=stmt.lineno)
-            owner = _owner(section, stmt)
+            owner = _owner(section, stmt, mates)
+            if call == "couple" and owner != name:
+                driven = _string_arg(stmt)
+                raise SpliceError(f"couple({driven!r}, ...) must follow a mate of part {name!r} (the "
+                                  f"driven mate is the part's own: {name}_<frame> or its name=); "
+                                  f"{driven!r} is " + (f"a mate of {owner!r}" if owner else "no mate"),
+                                  block=block, line=stmt.lineno)
             if owner != name:
                 raise SpliceError(f"{'frames' if block == 'frames' else 'mates'} of {owner!r} do not belong "
                                   f"to part {name!r}", block=block, line=stmt.lineno)
@@ -596,9 +632,10 @@ def param_readers(source: str) -> dict[str, set[str]]:
         return out | {n.value for n in ast.walk(node) if isinstance(n, ast.Constant) and isinstance(n.value, str)}
 
     reads: dict[str, set[str]] = {p: set() for p in prog.parts}
+    mates = prog.mate_children
     for section in ("parts", "frames", "assembly"):
         for stmt in prog.statements(section):
-            owner = _owner(section, stmt)
+            owner = _owner(section, stmt, mates)
             if owner in reads:
                 reads[owner] |= names(stmt)
     for seen in reads.values():

@@ -5,6 +5,7 @@ from __future__ import annotations
 import ast
 
 from procedura_brep.program.sections import parse_sections
+from procedura_brep.program.splice import mate_children
 
 
 def _names(node: ast.AST) -> set[str]:
@@ -29,6 +30,7 @@ def part_replies(source: str) -> list[str]:
     parts: dict[str, ast.stmt] = {}
     frames: dict[str, list[ast.stmt]] = {}
     mates: dict[str, list[ast.stmt]] = {}
+    children = mate_children([s for s in tree.body if sec.section_of(s.lineno) == "assembly"])
     for stmt in tree.body:
         where = sec.section_of(stmt.lineno)
         if where == "params":
@@ -40,7 +42,10 @@ def part_replies(source: str) -> list[str]:
         elif where == "frames":
             frames.setdefault(stmt.value.args[0].value, []).append(stmt)
         elif where == "assembly":
-            mates.setdefault(stmt.value.args[0].value.split(".")[0], []).append(stmt)
+            first = stmt.value.args[0].value
+            owner = (children.get(first, first) if stmt.value.func.id == "couple"  # its driven mate's part
+                     else first.split(".")[0])
+            mates.setdefault(owner, []).append(stmt)
 
     replies = []
     for name, fn in parts.items():
