@@ -71,6 +71,28 @@ def test_a_declared_mass_is_shared_by_a_painted_part_and_its_blocks():
         solid["body"] / solid["body_stripe"], rel=1e-12)
 
 
+def test_a_painted_shell_is_the_unpainted_part_s_shell_shared_with_its_blocks():
+    from procedura_brep import kernel
+    whole = Box(100, 100, 100, align=CENTRED)
+    region = Pos(0, 0, 40) * Box(100, 100, 20, align=CENTRED)  # the top 20 mm, painted
+    part = cpart("body", whole - region)
+    block = cpart("body_top", whole & region)
+    block.block_of = "body"
+    part.unpainted = kernel.write_brep(whole.wrapped)
+    part.hollow = 5.0
+    m = model(part, block)
+    block.material = "rubber"
+    got = {n: part_mass_detail(m, n) for n in ("body", "body_top")}
+    assert {g.method for g in got.values()} == {"shell-exact"}
+    assert sum(g.props.mass for g in got.values()) == pytest.approx((100**3 - 90**3) * ALU * 1e-9, rel=1e-6)
+    solid = {n: part_mass(model(cpart("a", whole - region), cpart("b", whole & region)), k).mass
+             for n, k in (("body", "a"), ("body_top", "b"))}
+    solid["body_top"] *= 1200 / ALU  # rubber
+    assert got["body"].props.mass / got["body_top"].props.mass == pytest.approx(
+        solid["body"] / solid["body_top"], rel=1e-9)
+    assert "shared with its paint blocks" in got["body_top"].note
+
+
 def test_hollow_box_is_the_exact_shell():
     p = cpart("box", Box(100, 100, 100, align=CENTRED), placed(500, 0, 0, deg=45))
     p.hollow = 5.0

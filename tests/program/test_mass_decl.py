@@ -61,16 +61,15 @@ def test_the_api_raises_the_format_error_itself():
         api.part(hollow=0)
 
 
-def test_hollow_with_paint_blocks_is_refused_naming_the_part(worker):
+def test_a_painted_part_keeps_its_hollow_and_its_blocks_declare_none(worker):
     src = lamp(arm="hollow=1.5, ").replace(
         "# === frames ===",
         '@paint("arm", material="rubber", description="grip")\n'
         "def arm_grip():\n"
         "    return Pos(70, 0, 0) * Box(20, 20, 20)\n\n# === frames ===")
-    model = worker.compile(src, CompileOptions(name="lamp", cache=False))
-    found = [f for f in model.findings if f.code == "mass"]
-    assert found and found[0].part == "arm" and "hollow= cannot be combined with @paint" in found[0].message
-    assert not model.ok
+    model = compiled(src, worker=worker)
+    assert model.part("arm").hollow == 1.5 and model.part("arm").unpainted
+    assert model.part("arm_grip").block_of == "arm" and model.part("arm_grip").hollow is None
 
 
 @pytest.mark.parametrize("field, value", [("mass", -1.0), ("hollow", 0), ("mass", "2"), ("hollow", True)])

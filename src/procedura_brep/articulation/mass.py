@@ -87,15 +87,32 @@ def part_mass_detail(model: CompiledModel, name: str) -> PartMass:
     density = model.material_of(part).density
     rho = density * 1e-9  # kg / mm^3
     owner = model.part(part.block_of) if part.block_of else part
+    pieces = [p for p in model.parts if p.owner == owner.name]
     if owner.mass is not None:
-        pieces = [p for p in model.parts if p.owner == owner.name]
-        total = sum(model.material_of(p).density * 1e-9 * _solid(p).volume for p in pieces)
-        rho = owner.mass / total * rho if total > 0 else 0.0
-        return PartMass(_world(_solid(part), part, rho), "declared", density)
+        return PartMass(_world(_solid(part), part, _shared(model, pieces, owner.mass, rho)),
+                        "declared", density)
+    if owner.hollow is not None and len(pieces) > 1:  # a painted shell: one shell, shared
+        got = shell(owner.unpainted or owner.brep, owner.hollow)
+        kg = got.volume * model.material_of(owner).density * 1e-9
+        note = "; ".join(n for n in (got.note, PAINTED_SHELL) if n)
+        return PartMass(_world(_solid(part), part, _shared(model, pieces, kg, rho)), got.method,
+                        density, note)
     if part.hollow is not None:
-        got = shell(part.brep, part.local_shape(), part.hollow)
+        got = shell(part.brep, part.hollow, part.local_shape())
         return PartMass(_world(got, part, rho), got.method, density, got.note)
     return PartMass(_world(_solid(part), part, rho), "solid", density)
+
+
+#: The note of a hollow part with ``@paint`` blocks.
+PAINTED_SHELL = ("the shell of the unpainted part (its material), shared with its paint blocks in "
+                 "proportion to their solid masses")
+
+
+def _shared(model: CompiledModel, pieces: list[CompiledPart], kg: float, rho: float) -> float:
+    """The density (kg/mm^3) that makes a piece of density ``rho`` carry its share of ``kg``
+    spread over ``pieces`` (a part and its paint blocks) in proportion to their solid masses."""
+    total = sum(model.material_of(p).density * 1e-9 * _solid(p).volume for p in pieces)
+    return kg / total * rho if total > 0 else 0.0
 
 
 def _solid(part: CompiledPart) -> Integrals:
@@ -170,7 +187,7 @@ def mass_report(model: CompiledModel) -> tuple[dict[str, Any], list[Finding]]:
             row["hollow_mm"] = p.hollow
         if pm.note:
             row["note"] = pm.note
-            if pm.method == "solid":
+            if pm.method == "solid" and p.hollow is not None:
                 findings.append(Finding("part-hollow", f"part {p.name}: {pm.note}", part=p.name,
                                         value=p.hollow, severity="warning"))
         rows.append(row)

@@ -148,18 +148,21 @@ def exact_shell(shape: Any, wall: float) -> Integrals | str:
     return subtract(outer, inner, "shell-exact")
 
 
-def shell(brep: bytes, shape: Any, wall: float) -> Integrals:
+def shell(brep: bytes, wall: float, shape: Any = None) -> Integrals:
     """The part's integrals as a shell of ``wall`` mm (cached by BRep and wall).
 
     Args:
         brep: the part's local BRep bytes (the cache key; sent to the child).
-        shape: the same shape, read (for the approximation and the thickness check).
         wall: the wall thickness, mm.
+        shape: the same shape, already read (default: read from ``brep`` when not cached).
     """
     key = (hashlib.sha256(brep).hexdigest(), float(wall))
     hit = _CACHE.get(key)
     if hit is not None:
         return hit
+    if shape is None:
+        from .. import kernel
+        shape = kernel.read_brep(brep)
     solid = volume_integrals(shape)
     area = surface_integrals(shape).volume
     half = solid.volume / area if area > 0 else 0.0

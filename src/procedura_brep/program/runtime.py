@@ -170,7 +170,6 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
                             f"{limits.max_parts} (config.SANDBOX.max_parts)", value=n_parts,
                limit=limits.max_parts)
     _check_materials(b, reg)
-    _check_hollow_paint(b, reg)
     if failed(b.findings):
         return CompiledModel(name, params, [], [], b.findings, b.timings)
     t = _lap(b, "exec_s", t0)
@@ -268,17 +267,6 @@ def _check_materials(b: _Build, reg: registry.Registry) -> None:
                                f"{did_you_mean(decl.material, library)}; use one "
                                f"of: {', '.join(library)} (or declare it with material(...))",
                    part=decl.name, line=decl.line)
-
-
-def _check_hollow_paint(b: _Build, reg: registry.Registry) -> None:
-    """A ``hollow=`` part carries no ``@paint`` blocks (its shell would be split across solid
-    blocks); ``mass=`` is the way to weigh a painted part."""
-    for decl in reg.paints:
-        owner = reg.parts.get(decl.part)
-        if owner is not None and owner.hollow is not None:
-            b.fail("mass", f"part {owner.name}: hollow= cannot be combined with @paint blocks "
-                           f"({decl.name}); declare its mass with mass= instead",
-                   part=owner.name, line=owner.line)
 
 
 def _check_model_caps(b: _Build, reg: registry.Registry) -> None:
