@@ -134,6 +134,15 @@ class Tolerances:
             square (rack and pinion) within this angle (``program/couplings.py``).
         coupling_ratio_rel: battery B8: a coupling's measured driven/driver ratio is within
             this fraction of the declared one.
+        coupling_centre_mm: coupling gate: a gear pair's centre distance is (z1 +- z2) m / 2,
+            a pinion's axis lies its pitch radius from the rack's pitch line, and a nut's slide
+            axis is the screw's axis, each within this (``gates/coupling.py``).
+        coupling_module_rel: coupling gate: a gear's module measured from its tip circle agrees
+            with the declared one (rack and pinion) and with its partner's within this fraction.
+        coupling_samples: coupling gate: poses over one tooth pitch of the driver (rest
+            included) at which a meshing pair's exact common is computed.
+        coupling_time_s: coupling gate: the sampled interference check of one model stops
+            (reporting the pairs it did not reach as not verified) after this many seconds.
     """
 
     placement_mm: float = 1e-6
@@ -194,6 +203,10 @@ class Tolerances:
     origin_offset_min_mm: float = 5.0
     coupling_axis_deg: float = 0.5
     coupling_ratio_rel: float = 0.01
+    coupling_centre_mm: float = 0.05
+    coupling_module_rel: float = 0.02
+    coupling_samples: int = 7
+    coupling_time_s: float = 60.0
 
 
 @dataclass(frozen=True)

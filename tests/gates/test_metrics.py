@@ -49,7 +49,7 @@ def test_check_model_report_is_json(make_peg):
     d = json.loads(json.dumps(report.as_dict()))
     assert d["passed"] is False
     assert d["verdicts"] == {"compile": True, "mate": False, "pieces": True, "interference": True,
-                             "connectivity": True, "origin": True}
+                             "connectivity": True, "origin": True, "coupling": True}
     assert d["n_vis"] == 0  # the peg still touches the socket walls (fit clearance = contact)
     mate = d["mates"]["post_on_base"]
     assert mate["area_mm2"] == 0.0 and mate["area_limit_mm2"] == pytest.approx(5.0)

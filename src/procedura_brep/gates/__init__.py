@@ -1,5 +1,5 @@
 """Deterministic gates on compiled models: compile feedback, mate, pieces, interference,
-connectivity, finish, metrics.
+connectivity, coupling, finish, metrics.
 
 Import-light: names resolve lazily (PEP 562), and no submodule imports build123d; OCP loads only
 when a gate actually measures geometry.
@@ -11,6 +11,7 @@ Public API::
     pieces_gate(model) -> (list[Finding], GateResult)            # detached pieces per part
     interference_gate(model) -> (list[Finding], GateResult)      # every pair of parts
     connectivity_gate(model, baseline=None) -> (list[Finding], GateResult)
+    coupling_gate(model) -> (list[Finding], GateResult)           # gears, racks, screws mesh
     finish_gate(model=None, source=None) -> (list[Finding], GateResult)
     mesh_metrics(model) -> dict
     format_feedback(source, findings) -> str
@@ -29,6 +30,7 @@ _LAZY = {
     "interference_gate": ".interference", "scan": ".interference", "PairOverlap": ".interference",
     "connectivity_gate": ".connectivity", "analyse": ".connectivity", "Connectivity": ".connectivity",
     "finish_gate": ".finish",
+    "coupling_gate": ".coupling",
     "mesh_metrics": ".metrics",
     "format_feedback": ".feedback", "format_finding": ".feedback",
     "GateResult": ".policy", "decide": ".policy",

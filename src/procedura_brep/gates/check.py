@@ -12,6 +12,7 @@ from typing import Any
 from ..config import TOL
 from ..program.model import CompiledModel, Finding
 from .connectivity import analyse, judge
+from .coupling import coupling_gate
 from .feedback import format_feedback
 from .interference import interference_gate
 from .mate_gate import mate_gate
@@ -32,7 +33,7 @@ class CheckReport:
         model: model name.
         passed: no error finding in any gate (compile findings included).
         gates: one :class:`GateResult` per gate, in order compile, mate, pieces, interference,
-            connectivity, origin.
+            connectivity, origin, coupling.
         metrics: :func:`~procedura_brep.gates.metrics.mesh_metrics`.
         feedback: every finding formatted for the model (empty when clean).
         timings: seconds per stage.
@@ -70,6 +71,7 @@ class CheckReport:
             "interference": self.gate("interference").measured,
             "connectivity": conn,
             "origin": self.gate("origin").measured,
+            "coupling": self.gate("coupling").measured,
             "metrics": self.metrics,
             "triangles_per_part": self.metrics.get("triangles_per_part", {}),
             "findings": [f.as_dict() for f in self.findings],
@@ -80,8 +82,8 @@ class CheckReport:
 
 def check_model(model: CompiledModel, source: str | None = None, *,
                 baseline: int | None = None) -> CheckReport:
-    """Run the compile, mate, pieces, interference, connectivity and origin gates and the mesh
-    metrics.
+    """Run the compile, mate, pieces, interference, connectivity, origin and coupling gates and
+    the mesh metrics.
 
     Args:
         model: a compiled model (its own ``findings`` are the compile gate's).
@@ -118,7 +120,10 @@ def check_model(model: CompiledModel, source: str | None = None, *,
     t2 = time.perf_counter()
     _, origin_res = origin_gate(model)
     timings["origin"] = time.perf_counter() - t2
-    gates = [compile_res, mate_res, pieces_res, inter_res, conn_res, origin_res]
+    t2 = time.perf_counter()
+    _, coupling_res = coupling_gate(model)
+    timings["coupling"] = time.perf_counter() - t2
+    gates = [compile_res, mate_res, pieces_res, inter_res, conn_res, origin_res, coupling_res]
     findings = [f for g in gates for f in g.findings]
     timings["total"] = time.perf_counter() - t0
     return CheckReport(model.name, decide(findings), gates, metrics,
