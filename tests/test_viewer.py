@@ -257,6 +257,33 @@ def test_a_build_writes_the_viewer_and_its_final_findings(browser, tmp_path):
     assert not res.ok and not (out / "viewer.html").exists() and not (out / "viewer").exists()
 
 
+@pytest.mark.slow  # two compiles and a browser page
+def test_a_cylindrical_joint_gets_two_sliders_and_a_ball_joint_a_note(browser, worker, tmp_path):
+    from tests.sim.collar import program
+    model = compile_source(program(), name="collar", worker=worker)
+    art = articulate(model)
+    dofs = {d["name"]: d for j in viewer_data(model, art)["joints"] for d in j["dofs"]}
+    assert dofs["collar_bore__slide"]["unit"] == "mm" and dofs["collar_bore__turn"]["unit"] == "deg"
+    assert (dofs["collar_bore__slide"]["lower"], dofs["collar_bore__slide"]["upper"]) == \
+        (pytest.approx(-100), pytest.approx(120))
+    write_bundle(model, tmp_path, formats="viewer")
+    page, errors = _open(browser, tmp_path)
+    rest = _world(page, "collar")
+    _slide(page, "collar_bore__slide", 50)
+    _slide(page, "collar_bore__turn", 90)
+    want = _about(art.joint("collar_bore").frame, _tz(50) @ _rz(90)) @ rest
+    np.testing.assert_allclose(_world(page, "collar"), want, atol=1e-6)
+    np.testing.assert_allclose(_world(page, "column"), model.part("column").placement, atol=1e-6)
+    assert errors == []
+    page.close()
+
+    ball = LAMP.read_text().replace('"revolute", nominal="pin_d", fit="clearance", limits=(-45, 45)',
+                                    '"spherical", nominal="pin_d", fit="clearance", cone=30, features=False')
+    model = compile_source(ball, name="lamp_ball", worker=worker)
+    (joint,) = viewer_data(model, articulate(model))["joints"]
+    assert joint["type"] == "spherical" and joint["dofs"] == [] and "not posed" in joint["note"]
+
+
 # ---- procedura-brep view ----------------------------------------------------------------------
 
 def test_view_refuses_a_directory_without_a_viewer(tmp_path):
