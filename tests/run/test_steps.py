@@ -111,7 +111,7 @@ def test_build_gates_before_it_exports(tmp_path, worker):
     lines: list[str] = []
     res = build(LAMP, tmp_path / "run", formats=("step",), progress=lines.append)
     assert res.ok and res.exit_code == 0
-    assert lines == ["compiling lamp", "running the gates", "writing 3 parts as step",
+    assert lines == ["compiling lamp", "running the gates", "writing 3 parts as step, viewer",
                      f"saving {tmp_path / 'run'}"]
     assert list(res.report["timings"]).index("gates_s") < list(res.report["timings"]).index("export_s")
 
@@ -151,7 +151,9 @@ def test_cli_keep_failed_exports_a_model_that_fails_its_gates(tmp_path, worker):
     lifted.write_text(LIFTED)
     for flag, files in (([], ["program.py", "report.json", "summary.md"]),
                         (["--keep-failed"], ["mates.json", "model.step", "program.py", "report.json", "sheet.png",
-                                           "summary.md"])):
+                                           "summary.md", "viewer", "viewer.html", *(f"viewer/{f}" for f in (
+                                               "LICENSE-three", "app.js", "data.js", "findings.js",
+                                               "three.min.js"))])):
         out = tmp_path / f"o{len(flag)}"
         res = CliRunner().invoke(app, ["build", str(lifted), "-o", str(out), "--formats", "step", "-q", *flag])
         assert res.exit_code == 1 and "post is not seated on base" in res.stderr, res.output
