@@ -29,12 +29,13 @@ def lamp(worker):
 
 def test_lamp_passes_every_check(lamp, tmp_path):
     report = run_battery(lamp, out_dir=tmp_path)
-    assert [c.id for c in report.checks] == [f"B{i}" for i in range(8)]
+    assert [c.id for c in report.checks] == [f"B{i}" for i in range(9)]
     assert report.passed, [c.message for c in report.checks if not c.passed]
     doc = json.loads(json.dumps(report.as_dict()))
     b2 = next(c for c in doc["checks"] if c["id"] == "B2")
     assert b2["measured"]["min_reach"] >= b2["limits"]["min_reach"] == 0.97
     assert report.check("B4").skipped  # no wheels on a lamp
+    assert report.check("B8").skipped  # and no couplings
 
 
 def test_axis_rotated_30_degrees_fails_b0(lamp, tmp_path):

@@ -26,7 +26,7 @@ import numpy as np
 from ..errors import ProceduraError
 from ..mates.kinds import CONTINUOUS, PRISMATIC, REVOLUTE, Drive, JointKind, joint_kind
 from ..mates.vocabulary import TYPES
-from ..program.model import CompiledMate, CompiledModel
+from ..program.model import CompiledCoupling, CompiledMate, CompiledModel
 
 log = logging.getLogger(__name__)
 
@@ -52,11 +52,40 @@ class JointDof:
     effort: float
     velocity: float
     drive: Drive = "position"
+    #: The joint that drives this one through a coupling ("" when it is actuated itself): a
+    #: driven joint gets no actuator or drive of its own in any export.
+    driver: str = ""
 
     @property
     def kind(self) -> JointKind:
         """What this joint is (:mod:`procedura_brep.mates.kinds`)."""
         return joint_kind(self.type)
+
+
+@dataclass(frozen=True)
+class Coupling:
+    """A ``couple(...)`` as every export and the battery read it: ``q_driven = offset + ratio *
+    q_driver`` on the exported joints (SI units, positions from the compiled pose, signs on the
+    exported axes: a wheel turned half a turn by :mod:`.wheels` counts).
+
+    Attributes:
+        name: ``<driven>__<driver>``.
+        type: gear, rack_pinion, screw or belt.
+        driven, driver: the joint names.
+        ratio: rad/rad, m/rad or rad/m.
+        offset: rad or m (0: coupled joints mesh at the compiled pose).
+        mesh: the links of the two parts that engage (``("", "")`` for a belt).
+        source: the compiled coupling (its params and the ratio in rad and mm).
+    """
+
+    name: str
+    type: str
+    driven: str
+    driver: str
+    ratio: float
+    offset: float
+    mesh: tuple[str, str]
+    source: CompiledCoupling = field(repr=False, compare=False)
 
 
 def default_drive(jtype: JointType | DofType) -> Drive:
@@ -129,11 +158,17 @@ class Joint:
     angular_velocity: float = 0.0
     home: float = 0.0
     drive: Drive = "position"
+    coupling: Coupling | None = None
 
     @property
     def kind(self) -> JointKind:
         """What this joint is (:mod:`procedura_brep.mates.kinds`)."""
         return joint_kind(self.type)
+
+    @property
+    def driven(self) -> bool:
+        """Moved by a coupling from another joint (no actuator of its own)."""
+        return self.coupling is not None
 
     def dofs(self) -> list[JointDof]:
         """The 1-DOF joints this joint exports as (none for a spherical joint)."""
@@ -147,7 +182,8 @@ class Joint:
                     JointDof(self.name + TURN, turn, self.turn_lower, self.turn_upper,
                              self.torque, self.angular_velocity, default_drive(turn))]
         return [JointDof(self.name, self.type, self.lower, self.upper, self.effort,  # type: ignore[arg-type]  # the mate type's name is a DofType
-                         self.velocity, self.drive)]
+                         self.velocity, self.drive,
+                         self.coupling.driver if self.coupling is not None else "")]
 
     @property
     def anchor_m(self) -> np.ndarray:
@@ -171,6 +207,8 @@ class Articulation:
         joints: one per non-root link, in link order.
         part_link: part name -> the link it belongs to.
         wheels: the wheel joints (by evidence, :mod:`.wheels`), driven by one uniform command.
+        couplings: the program's couplings on the exported joints (:class:`Coupling`); each
+            driven joint's ``coupling`` is its entry here.
         base: ``free`` (a free root joint) or ``welded`` (fixed to the world); :func:`articulate`
             frees the base exactly when there are wheels. Exporters write this value as given.
     """
@@ -181,6 +219,7 @@ class Articulation:
     part_link: dict[str, str]
     wheels: list[str] = field(default_factory=list)
     base: Base = "welded"
+    couplings: list[Coupling] = field(default_factory=list)
 
     @property
     def root(self) -> Link:
@@ -221,6 +260,19 @@ class Articulation:
         for j in self.children(link):
             out.extend(self.subtree(j.child))
         return out
+
+    def root_driver(self, joint: str) -> tuple[str, float, float]:
+        """``(joint at the head of the chain, ratio, offset)`` with ``q_joint = offset + ratio *
+        q_head``: a driven joint followed up its chain of couplings (a gear train) to the joint
+        nobody drives (URDF's ``<mimic>`` names that one); an actuated joint is its own head."""
+        ratio, offset, cur = 1.0, 0.0, joint
+        for _ in range(len(self.couplings) + 1):  # couplings have no cycle (compile checks)
+            c = self.joint(cur).coupling
+            if c is None:
+                break
+            ratio, offset = ratio * c.ratio, offset + ratio * c.offset
+            cur = c.driver
+        return cur, ratio, offset
 
     def parent_of(self, link: str) -> str | None:
         lk = self.link(link)
@@ -374,6 +426,7 @@ def articulate(model: CompiledModel, *, evidence: dict[str, Any] | None = None) 
     art = Articulation(model.name, links, joints, part_link)
     _drive_wheels(model, art, evidence)
     art.base = "free" if art.wheels else "welded"
+    _couple(model, art)
     log.debug("articulated %s: %d links, %d joints, wheels %s", model.name, len(links),
               len(joints), art.wheels)
     return art
@@ -385,6 +438,8 @@ def _drive_wheels(model: CompiledModel, art: Articulation,
     from .wheels import find_wheels, flip, forward, rolling_direction
     art.wheels = find_wheels(model, {lk.name: lk.parts for lk in art.links}, art.joints, art.subtree,
                              evidence=evidence)
+    driven = {c.driven for c in model.couplings}
+    art.wheels = [w for w in art.wheels if w not in driven]  # a coupled wheel follows its driver
     if not art.wheels:
         return
     ahead = forward(art.root.frame, art.joint(art.wheels[0]).axis)
@@ -394,3 +449,25 @@ def _drive_wheels(model: CompiledModel, art: Articulation,
             j.frame = flip(j.frame)
             j.flipped = True
             art.link(j.child).frame = j.frame.copy()
+
+
+def _couple(model: CompiledModel, art: Articulation) -> None:
+    """The model's couplings on the exported joints: SI ratio, the sign of a flipped wheel."""
+    from ..program.couplings import si_ratio
+    names = {j.name for j in art.joints}
+    for c in model.couplings:
+        for role, name in (("driven", c.driven), ("driver", c.driver)):
+            if name not in names:
+                raise ArticulationError(f"coupling {c.name}: its {role} mate {name!r} is not a joint "
+                                        f"of the articulation")
+        driven, driver = art.joint(c.driven), art.joint(c.driver)
+        if driven.kind.compound or driven.kind.ball or driver.kind.compound or driver.kind.ball:
+            raise ArticulationError(f"coupling {c.name}: only revolute and prismatic joints couple")
+        sign = (-1.0 if driven.flipped else 1.0) * (-1.0 if driver.flipped else 1.0)
+        scale = si_ratio(c, driven.mate.type, driver.mate.type) / c.ratio if c.ratio else 0.0
+        link_of = art.part_link
+        mesh = (link_of.get(c.mesh[0], ""), link_of.get(c.mesh[1], ""))
+        cp = Coupling(c.name, c.type, c.driven, c.driver, sign * si_ratio(c, driven.mate.type, driver.mate.type),
+                      sign * c.offset * scale, mesh, c)
+        art.couplings.append(cp)
+        driven.coupling = cp

@@ -24,6 +24,25 @@ servos ``<joint>__x|y|z`` whose transmission is the ball's rotation vector proje
 frame's x, y and z (``gear``), each within +-cone: like a swivel's lock, they hold the compiled
 pose against gravity up to the mate's effort. The root is free or welded to the world as the
 articulation's ``base`` says (nothing here re-derives it).
+
+Couplings (``couple(...)``, :class:`~procedura_brep.articulation.tree.Coupling`): a driven joint
+gets no actuator (a servo of its own would fight the coupling); an ``<equality><joint>`` named
+after the coupling ties it to its driver (``q_driven = offset + ratio q_driver``, SI, from the
+compiled pose; a chain of couplings is a chain of equalities). It is written
+``joint1="<driven>" joint2="<driver>" polycoef="offset ratio 0 0 0"`` when ``|ratio| >= 1`` and
+the other way round, ``joint1="<driver>" joint2="<driven>" polycoef="-offset/ratio 1/ratio 0 0
+0"``, when ``|ratio| < 1`` (:func:`equality_form`): MuJoCo regularises a joint equality by the
+sum of the two joints' inverse inertias, ignoring the coefficient, which overstates the
+constraint's true inverse inertia ``w1 + k^2 w2`` whenever ``|k| < 1``; a lead screw's nut
+(0.64 mm per rad) then drifted 27 mm off its screw. With ``|k| >= 1`` the estimate is never
+above the truth, and with :data:`COUPLING_SOLREF` and the near-hard :data:`COUPLING_SOLIMP`
+every coupling of ``tests/program/transmission.py`` holds within 0.05 % of its ratio. A chain
+head's servo is tuned for its own inertia plus what its couplings reflect onto it
+(``ratio^2 M_jj`` of each joint it drives), and a speed-driven head that is not a wheel gets the
+inertia-scaled gain ``2 zeta M omega`` instead of the stall gain: MuJoCo's ``implicitfast``
+integrates actuator damping implicitly but solves constraints against the bare inertia, so a
+stall gain thousands of times a lead screw's inertia let its nut leave the screw by 10 mm in one
+step.
 """
 
 from __future__ import annotations
@@ -34,7 +53,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..articulation.mass import MassProps, link_masses
-from ..articulation.tree import Articulation, ArticulationError, articulate
+from ..articulation.tree import Articulation, ArticulationError, Coupling, articulate
 from ..mates.kinds import JointKind
 from ..program.model import CompiledModel
 from .meshes import collision_pieces, part_mesh, sim_mesh, stl_bytes, to_local_m
@@ -52,6 +71,10 @@ SERVO_OMEGA = 2 * np.pi * SERVO_HZ
 MIN_VELOCITY = 1e-9
 #: Damping ratio of every servo.
 SERVO_ZETA = 1.0
+#: Time constant and damping ratio of a coupling's equality (>= 2 timesteps: stable).
+COUPLING_SOLREF = (0.01, 1.0)
+#: Impedance of a coupling's equality: near hard at every violation (see the module docstring).
+COUPLING_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
 #: Mesh directory of ``model.xml`` relative to the bundle root (shared with the URDF).
 MESHDIR = "urdf/meshes"
 
@@ -128,12 +151,14 @@ def _dof_joint(spec, body, dof, kp: float) -> None:
     """A hinge or slide at the body origin about/along its z, with its servo."""
     import mujoco
     jt = body.add_joint(name=dof.name, type=_mj_joint_type(dof.kind), axis=[0, 0, 1], pos=[0, 0, 0])
-    act = spec.add_actuator(name=dof.name, target=dof.name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
     if not dof.kind.limited:
         jt.limited = mujoco.mjtLimited.mjLIMITED_FALSE
     else:
         jt.limited = mujoco.mjtLimited.mjLIMITED_TRUE
         jt.range = [float(dof.lower), float(dof.upper)]
+    if dof.driver:  # moved by its coupling's equality: no servo of its own
+        return
+    act = spec.add_actuator(name=dof.name, target=dof.name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
     if dof.drive == "velocity":
         act.set_to_velocity(kv=float(kp))
         act.ctrlrange = [-dof.velocity, dof.velocity]
@@ -147,6 +172,26 @@ def _dof_joint(spec, body, dof, kp: float) -> None:
         act.ctrlrange = [float(dof.lower), float(dof.upper)]
     act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
     act.forcerange = [-dof.effort, dof.effort]
+
+
+def equality_form(c: Coupling) -> tuple[str, str, float, float]:
+    """``(joint1, joint2, a0, a1)`` of a coupling's joint equality ``q1 = a0 + a1 q2``: the
+    driven joint first when ``|ratio| >= 1``, else the driver (see the module docstring)."""
+    if abs(c.ratio) >= 1.0:
+        return c.driven, c.driver, c.offset, c.ratio
+    return c.driver, c.driven, -c.offset / c.ratio, 1.0 / c.ratio
+
+
+def _reflected(art: Articulation, m, mass_matrix: np.ndarray) -> dict[str, float]:
+    """Chain head -> the inertia its couplings add to it, ``sum(ratio^2 M_jj)`` over the joints
+    it drives (directly or down a chain), so its servo is tuned for the load it moves."""
+    import mujoco
+    out: dict[str, float] = {}
+    for c in art.couplings:
+        head, ratio, _ = art.root_driver(c.driven)
+        dof = int(m.jnt_dofadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, c.driven)])
+        out[head] = out.get(head, 0.0) + ratio**2 * float(mass_matrix[dof, dof])
+    return out
 
 
 def _build(model: CompiledModel, art: Articulation, masses: dict[str, MassProps], floor_z: float,
@@ -200,6 +245,11 @@ def _build(model: CompiledModel, art: Articulation, masses: dict[str, MassProps]
             continue
         for dof in j.dofs():  # one joint; a cylindrical joint's slide then turn, same axis
             _dof_joint(spec, body, dof, (gains or {}).get(dof.name, 1.0))
+    for c in art.couplings:
+        j1, j2, a0, a1 = equality_form(c)
+        spec.add_equality(name=c.name, type=mujoco.mjtEq.mjEQ_JOINT, name1=j1,
+                          name2=j2, data=[a0, a1, 0, 0, 0] + [0] * 7,
+                          solref=list(COUPLING_SOLREF), solimp=list(COUPLING_SOLIMP))
     for a, b in excluded:
         spec.add_exclude(bodyname1=a, bodyname2=b)
     spec.assets = dict(assets)
@@ -223,6 +273,7 @@ def build_mjcf(model: CompiledModel, *, art: Articulation | None = None,
     mass_matrix = np.zeros((m.nv, m.nv))
     mujoco.mj_fullM(m, d, mass_matrix)
     gains: dict[str, float] = {}
+    reflected = _reflected(art, m, mass_matrix)
     for j in art.joints:
         if j.kind.ball:  # the largest of its three diagonal inertias
             jid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, j.name)
@@ -231,8 +282,13 @@ def build_mjcf(model: CompiledModel, *, art: Articulation | None = None,
             continue
         for jd in j.dofs():
             dof = int(m.jnt_dofadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, jd.name)])
-            mjj = float(mass_matrix[dof, dof])
-            if jd.drive == "velocity":  # velocity servo: stall torque = effort at full speed
+            mjj = float(mass_matrix[dof, dof]) + reflected.get(jd.name, 0.0)
+            if jd.drive == "velocity" and jd.name in reflected and jd.name not in art.wheels:
+                # a coupling's head: a stall gain far above its inertia would be integrated
+                # implicitly while the coupling's equality is solved against the bare inertia,
+                # and the driven joint would jump off its ratio (see the module docstring)
+                gains[jd.name] = 2 * SERVO_ZETA * mjj * SERVO_OMEGA
+            elif jd.drive == "velocity":  # velocity servo: stall torque = effort at full speed
                 gains[jd.name] = max(2 * SERVO_ZETA * mjj * SERVO_OMEGA,
                                      jd.effort / max(jd.velocity, MIN_VELOCITY))
             else:

@@ -17,6 +17,12 @@ A cylindrical joint (slide along and turn about one axis) is, in both profiles, 
 (or continuous) ``<joint>__turn`` from the carrier to the child, both at the anchor, axis
 ``0 0 1``.
 
+A coupled joint (``couple(...)``) carries ``<mimic joint="<driver>" multiplier="<ratio>"
+offset="<offset>"/>`` (SI: rad/rad, m/rad, rad/m), in both profiles. A chain of couplings (a gear
+train) names the chain's head, the joint nobody drives, with the product of the ratios
+(:meth:`~procedura_brep.articulation.tree.Articulation.root_driver`): URDF consumers
+resolve one level of mimic only.
+
 Link frames follow :mod:`procedura_brep.articulation.tree` (a child link's origin is its joint
 anchor, its +Z the joint axis), so every joint axis is ``0 0 1``. Units: metres, kg, radians.
 Mesh paths are relative (``meshes/<part>.stl``); stems are unique (part names are unique, and
@@ -210,6 +216,10 @@ def urdf_text(model: CompiledModel, *, profile: Profile = "strict",
                    turn.lower, turn.upper, (turn.effort, turn.velocity))
         else:
             _joint(robot, j.name, kind, j.parent, j.child, org, "0 0 1", j, j.lower, j.upper)
+            if j.coupling is not None:
+                head, ratio, offset = art.root_driver(j.name)
+                el = robot.findall("joint")[-1]
+                ET.SubElement(el, "mimic", joint=head, multiplier=fmt(ratio), offset=fmt(offset))
     ET.indent(robot)
     return '<?xml version="1.0"?>\n' + ET.tostring(robot, encoding="unicode") + "\n"
 

@@ -22,6 +22,13 @@ USD joint axes can only be X, Y or Z, so each joint frame is the mate frame rota
 in degrees, prismatic in metres; every driven joint has a DriveAPI (angular or linear) of the kind
 its ``drive`` says: ``position`` (stiffness, target position 0) or ``velocity`` (damping only,
 target velocity 0).
+
+A coupled joint (``couple(...)``) has no DriveAPI (its driver moves it; UsdPhysics has no
+schema for a joint-to-joint ratio), and carries custom attributes in our namespace
+(:data:`COUPLING_NS`): ``procedura:coupling:driver`` (a relationship to the driver joint's prim),
+``:type`` (gear, rack_pinion, screw, belt), ``:ratio`` and ``:offset`` in the joints' USD units
+(degrees for a revolute, metres for a prismatic: the units of their limits here), with
+``q_driven = offset + ratio * q_driver`` counted from the authored pose.
 """
 
 from __future__ import annotations
@@ -38,6 +45,8 @@ from .mjcf import quat
 
 #: Rotation taking the joint's X axis onto the mate frame's Z axis (R_y(-90 deg)).
 Z_TO_X = np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]])
+#: Namespace of our custom attributes (UsdPhysics has no schema for them).
+COUPLING_NS = "procedura:coupling"
 #: Drive stiffness/damping written for position drives (per unit of effort).
 DRIVE_STIFFNESS_PER_EFFORT = 10.0
 DRIVE_DAMPING_PER_EFFORT = 1.0
@@ -156,7 +165,9 @@ def usd_stage(model: CompiledModel, *, art: Articulation | None = None,
             local = np.linalg.inv(art.link(body).frame) @ j.frame
             setpos(Gf.Vec3f(*[float(c) for c in local[:3, 3] / 1000.0]))
             setrot(_quatf(local[:3, :3] @ Z_TO_X))
-        if kind.compound:
+        if j.coupling is not None:  # moved by its driver: no drive of its own
+            _coupling_attrs(jp.GetPrim(), j, art, f"{root}/joints")
+        elif kind.compound:
             for dof, instance in zip(j.dofs(), ("transX", "rotX")):
                 drive = UsdPhysics.DriveAPI.Apply(jp.GetPrim(), instance)
                 drive.CreateTypeAttr("force")
@@ -179,6 +190,21 @@ def usd_stage(model: CompiledModel, *, art: Articulation | None = None,
                 drive.CreateDampingAttr(float(j.effort * DRIVE_DAMPING_PER_EFFORT))
                 drive.CreateTargetPositionAttr(0.0)
     return stage
+
+
+def _coupling_attrs(prim, j, art: Articulation, joints: str) -> None:
+    """``procedura:coupling:*`` on a driven joint's prim (USD units: deg and m)."""
+    from pxr import Sdf
+    c = j.coupling
+    driver = art.joint(c.driver)
+    usd = {True: 1.0, False: float(np.degrees(1.0))}  # SI -> USD unit: m stays, rad -> deg
+    ratio = c.ratio * usd[j.kind.slides] / usd[driver.kind.slides]
+    prim.CreateRelationship(f"{COUPLING_NS}:driver", custom=True).SetTargets([f"{joints}/{c.driver}"])
+    values = (("type", Sdf.ValueTypeNames.Token, c.type),
+              ("ratio", Sdf.ValueTypeNames.Double, float(ratio)),
+              ("offset", Sdf.ValueTypeNames.Double, float(c.offset * usd[j.kind.slides])))
+    for key, vtype, value in values:
+        prim.CreateAttribute(f"{COUPLING_NS}:{key}", vtype, custom=True).Set(value)
 
 
 #: The four DOF a cylindrical joint locks (a limit with low > high locks a DOF in UsdPhysics).

@@ -9,7 +9,7 @@ are what gets checked. :func:`failures` turns a report into findings, one per fa
 B0 model fidelity (``model.xml``) · B1 settle (``model.xml``) · B2 joint sweeps (root welded,
 gravity off; exact-solid penetration sampled along every range, spherical cones included) · B3
 rest-contact scan on exact solids · B4 wheeled mobility · B5 URDF re-import · B6 USD validation ·
-B7 random-control smoke run.
+B7 random-control smoke run · B8 transmission (each coupling's measured ratio, :mod:`.transmission`).
 A failed check saves up to 8 frames of its phase under ``renders/sim/``.
 """
 
@@ -37,13 +37,14 @@ from .dynamics import check_b1, check_b4, check_b7, sweep_joints
 from .fidelity import check_b0, check_b5, check_b6
 from .frames import render_frames
 from .report import BatteryReport, CheckResult
+from .transmission import check_b8
 
 if TYPE_CHECKING:
     from .sweep import SweepHit
 
 log = logging.getLogger(__name__)
 
-ALL_CHECKS: tuple[str, ...] = ("B0", "B1", "B2", "B3", "B4", "B5", "B6", "B7")
+ALL_CHECKS: tuple[str, ...] = ("B0", "B1", "B2", "B3", "B4", "B5", "B6", "B7", "B8")
 #: The checks that read none of the bundle's files (the model and its articulation only): they
 #: run while a forked child writes the bundle (:class:`_Export`; B3 in that child, after it).
 FILELESS: tuple[str, ...] = ("B2", "B3")
@@ -193,7 +194,10 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
     m.opt.gravity[:] = 0.0  # the sweep tests range and collisions; gravity is B1's business
     floor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
     m.geom_contype[floor] = m.geom_conaffinity[floor] = 0  # the root is welded: no floor
-    swept = sweep_joints(m, art, [d.name for j in art.joints if not j.kind.ball for d in j.dofs()])
+    # a coupled joint has no servo: it moves with its driver (the coupling's equality), and
+    # battery B8 measures how; its exact sweep below still runs on its own range
+    swept = sweep_joints(m, art, [d.name for j in art.joints if not j.kind.ball for d in j.dofs()
+                                  if not d.driver])
     # each joint's exact sweep, with the values MuJoCo reached (an overshoot is swept too)
     hits, booleans = sweep_all(model, art, list(art.joints),
                                {j.name: (swept[j.name]["qmin"], swept[j.name]["qmax"])
@@ -215,11 +219,13 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
                 if not worst_traj:
                     worst_traj = _ball_traj(m, j.name, *hit.value)
             continue
-        reached = {d.name: swept[d.name] for d in j.dofs()}
+        reached = {d.name: swept[d.name] for d in j.dofs() if d.name in swept}
         r = reached[j.name] if j.name in reached else None
         hit = hits[j.name]
         pen = hit.depth
-        if r:
+        if j.coupling is not None:
+            rows[j.name] = {"driven_by": j.coupling.driver, **hit.as_dict()}
+        elif r:
             rows[j.name] = {**_reach_row(r), **hit.as_dict()}
         else:  # a cylindrical joint: one row per DOF for the drive, one for the exact sweep
             rows[j.name] = hit.as_dict()
@@ -431,6 +437,7 @@ def _run(model: CompiledModel, root: Path, wanted: tuple[str, ...], frames: bool
     run("B5", lambda: check_b5(art, masses, root / "urdf"))
     run("B6", lambda: check_b6(art, root / "model.usda"))
     run("B7", lambda: check_b7(m_file), m_file)
+    run("B8", lambda: check_b8(m_file, art), m_file)
     order = {cid: k for k, cid in enumerate(ALL_CHECKS)}
     report.checks.sort(key=lambda c: order.get(c.id, len(order)))
     report.timings = {k: report.timings[k] for k in sorted(report.timings, key=lambda k: order.get(k, len(order)))}

@@ -174,6 +174,8 @@ def check_b5(art: Articulation, masses: dict[str, MassProps], urdf_dir: Path) ->
     measured["yourdfpy_valid"] = valid
     if not valid:
         problems.append("strict URDF fails yourdfpy validation")
+    problems.extend(_mimic_problems(art, u, m))
+    measured["mimics"] = sum(1 for j in u.joint_map.values() if j.mimic is not None)
     st_types = {name: j.type for name, j in u.joint_map.items()}
     want_strict = _urdf_strict_types(art)
     if st_types != want_strict:
@@ -192,6 +194,24 @@ def check_b5(art: Articulation, masses: dict[str, MassProps], urdf_dir: Path) ->
               "mass_rel_err": TOL.sim_mass_rel, "yourdfpy_valid": True, "check_urdf_rc": 0}
     return CheckResult("B5", "URDF re-import", not problems, measured, limits,
                        "; ".join(problems) or "URDF re-imports with the same joints, axes, masses")
+
+
+def _mimic_problems(art: Articulation, u, m) -> list[str]:
+    """Every coupled joint carries its ``<mimic>`` (the chain's head, the ratio product) in the
+    strict URDF, and MuJoCo's import of the mujoco profile turned each into an equality."""
+    want = {c.driven: art.root_driver(c.driven) for c in art.couplings}
+    got = {n: (j.mimic.joint, float(j.mimic.multiplier), float(j.mimic.offset or 0.0))
+           for n, j in u.joint_map.items() if j.mimic is not None}
+    out = []
+    for name in sorted(set(want) | set(got)):
+        w, g = want.get(name), got.get(name)
+        if w is None or g is None or g[0] != w[0] or not np.isclose(g[1], w[1], rtol=1e-9, atol=0) \
+                or not np.isclose(g[2], w[2], rtol=0, atol=1e-12):
+            out.append(f"URDF joint {name!r}: mimic {g} where the couplings say {w}")
+    if int(m.neq) != len(art.couplings):
+        out.append(f"the mujoco-profile URDF imports with {int(m.neq)} equality constraints; the "
+                   f"model has {len(art.couplings)} couplings")
+    return out
 
 
 #: Validators B6 runs (every registered physics validator plus stage metadata).

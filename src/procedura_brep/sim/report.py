@@ -11,7 +11,7 @@ class CheckResult:
     """One battery check.
 
     Attributes:
-        id: ``"B0"`` .. ``"B7"``.
+        id: ``"B0"`` .. ``"B8"``.
         name: short name, e.g. ``"model fidelity"``.
         passed: the verdict (a skipped check passes).
         measured: measured values by key (SI units, the key names the unit).
