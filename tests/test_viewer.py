@@ -100,8 +100,6 @@ def test_findings_data_merges_the_gates_rows_errors_first():
     data = findings_data(report)
     assert data["status"] == "gates_failed"
     assert [(f["code"], f["part"]) for f in data["findings"]] == [("mate", "arm"), ("origin", "post")]
-    kept = findings_data({**report, "kept_previous": True})
-    assert "previous complete build" in kept["note"]
     assert findings_data(None)["findings"] == [] and "no report" in findings_data(None)["note"]
     text = findings_js(report).decode()
     assert text.startswith("window.PROCEDURA_FINDINGS = ")

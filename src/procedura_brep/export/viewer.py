@@ -159,11 +159,7 @@ def findings_data(report: Mapping[str, Any] | None) -> dict[str, Any]:
                      if f.get(k) is not None})
     order = {"error": 0, "warning": 1, "info": 2}
     rows.sort(key=lambda r: order.get(str(r.get("severity", "error")), 3))
-    out: dict[str, Any] = {"status": report.get("status"), "findings": rows}
-    if report.get("kept_previous"):
-        out["note"] = ("this build failed; the model shown is the previous complete build "
-                       "(its findings may name parts it does not have)")
-    return out
+    return {"status": report.get("status"), "findings": rows}
 
 
 def findings_js(report: Mapping[str, Any] | None) -> bytes:

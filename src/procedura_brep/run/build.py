@@ -203,7 +203,6 @@ class _Run:
         self.result.report = report
         out = self.result.out_dir
         write_summary(out, report)
-        write_viewer_findings(out, report)  # a kept previous build's viewer lists these
         self.result.files = {"report": out / "report.json"}
         if not report.get("kept_previous"):
             self.result.files["program"] = out / "program.py"

@@ -173,8 +173,10 @@ def write_summary(out_dir: Any, report: Mapping[str, Any]) -> None:
 
 
 def write_viewer_findings(run_dir: Any, report: Mapping[str, Any]) -> None:
-    """Rewrite ``viewer/findings.js`` for ``report`` where ``run_dir`` holds a viewer (the
-    bundle wrote it before the findings were final); a best effort, as the summary."""
+    """Rewrite ``viewer/findings.js`` for ``report`` where ``run_dir`` (a complete build's
+    staging folder, before it is swapped in) holds a viewer: the bundle wrote it before the
+    findings were final. A failed build keeps a previous viewer as it was. A best effort, as
+    the summary."""
     from pathlib import Path
 
     from ..export.viewer import FINDINGS_JS, findings_js
