@@ -67,7 +67,8 @@ class PartMass:
         props: mass (kg), centre of mass (m, world), inertia about it (kg m^2, world).
         method: ``solid`` | ``declared`` | ``shell-exact`` | ``shell-approx``.
         density: the material's density, kg/m^3.
-        note: why the method differs from what the part asked for ("" when it does not).
+        note: what a figure not had as the part asked rests on (a fallback and why, a shell
+            shared with paint blocks); "" otherwise.
     """
 
     props: MassProps
@@ -87,15 +88,15 @@ def part_mass_detail(model: CompiledModel, name: str) -> PartMass:
     density = model.material_of(part).density
     rho = density * 1e-9  # kg / mm^3
     owner = model.part(part.block_of) if part.block_of else part
-    pieces = [p for p in model.parts if p.owner == owner.name]
+    owned = [p for p in model.parts if p.owner == owner.name]  # the part and its paint blocks
     if owner.mass is not None:
-        return PartMass(_world(_solid(part), part, _shared(model, pieces, owner.mass, rho)),
+        return PartMass(_world(_solid(part), part, _shared(model, owned, owner.mass, rho)),
                         "declared", density)
-    if owner.hollow is not None and len(pieces) > 1:  # a painted shell: one shell, shared
+    if owner.hollow is not None and len(owned) > 1:  # a painted shell: one shell, shared
         got = shell(owner.unpainted or owner.brep, owner.hollow)
         kg = got.volume * model.material_of(owner).density * 1e-9
         note = "; ".join(n for n in (got.note, PAINTED_SHELL) if n)
-        return PartMass(_world(_solid(part), part, _shared(model, pieces, kg, rho)), got.method,
+        return PartMass(_world(_solid(part), part, _shared(model, owned, kg, rho)), got.method,
                         density, note)
     if part.hollow is not None:
         got = shell(part.brep, part.hollow, part.local_shape())
