@@ -40,6 +40,7 @@ def model(*parts) -> CompiledModel:
 @pytest.fixture(autouse=True)
 def _fresh_shells(monkeypatch):
     monkeypatch.setattr(shell, "_CACHE", {})
+    monkeypatch.setattr(shell, "_SPENT", [0.0])
 
 
 def test_a_declared_mass_scales_the_density_and_keeps_com_and_inertia_shape():
@@ -171,6 +172,20 @@ def test_a_slow_offset_is_cut_at_the_wall_clock_limit(monkeypatch):
     got = part_mass_detail(model(p), "box")
     assert time.perf_counter() - t < 10
     assert (got.method, got.note) == ("shell-approx", "OCCT's inward offset took over 1 s")
+
+
+def test_the_exact_shells_of_a_process_share_one_time_budget(monkeypatch):
+    monkeypatch.setattr(shell, "EXACT_BUDGET_S", 1.5)
+    _forced(monkeypatch, lambda shape, wall: time.sleep(30))
+    boxes = [cpart(f"b{k}", Box(100, 100, 100 + k)) for k in range(3)]
+    for b in boxes:
+        b.hollow = 5.0
+    m = model(*boxes)
+    t = time.perf_counter()
+    notes = [part_mass_detail(m, b.name).note for b in boxes]
+    assert time.perf_counter() - t < 10
+    assert notes[0] == "OCCT's inward offset took over 1.5 s"
+    assert notes[1:] == ["this process spent its 1.5 s for exact shells (EXACT_BUDGET_S)"] * 2
 
 
 def test_a_wrong_offset_is_checked_not_trusted():

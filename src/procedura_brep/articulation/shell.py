@@ -25,6 +25,7 @@ same numbers.
 from __future__ import annotations
 
 import hashlib
+import time
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -34,6 +35,12 @@ Method = Literal["solid", "declared", "shell-exact", "shell-approx"]
 
 #: Wall-clock seconds the exact offset of one part may take (in its forked child).
 EXACT_WALL_S = 20.0
+#: Wall-clock seconds the exact offsets of one process may take together (a build's limited
+#: child computes them all once); past it every further hollow part is approximated, so a
+#: model of many slow parts stays bounded.
+EXACT_BUDGET_S = 60.0
+#: Seconds this process has spent on exact offsets.
+_SPENT = [0.0]
 #: The exact shell volume must lie within (lo, hi) x the thin-shell estimate (area x wall);
 #: outside, OCCT's offset is taken as wrong (a box of side s and wall t gives
 #: 1 - 2t/s + 4t^2/(3 s^2), 0.90 at t = s/20; a wall near the half-thickness gives ~0.5).
@@ -171,7 +178,11 @@ def shell(brep: bytes, wall: float, shape: Any = None) -> Integrals:
                         f"hollow={wall:g} mm is not less than the part's mean half-thickness "
                         f"(volume / area = {half:.3g} mm): weighed solid")
     else:
-        got = _exact_in_child(brep, wall)
+        left = EXACT_BUDGET_S - _SPENT[0]
+        t = time.monotonic()
+        got = (_exact_in_child(brep, wall, min(EXACT_WALL_S, left)) if left > 0 else
+               f"this process spent its {EXACT_BUDGET_S:g} s for exact shells (EXACT_BUDGET_S)")
+        _SPENT[0] += time.monotonic() - t
         out = got if isinstance(got, Integrals) else thin_shell(shape, wall, got)
     if len(_CACHE) >= _CACHE_SIZE:
         _CACHE.pop(next(iter(_CACHE)))
@@ -179,8 +190,8 @@ def shell(brep: bytes, wall: float, shape: Any = None) -> Integrals:
     return out
 
 
-def _exact_in_child(brep: bytes, wall: float) -> Integrals | str:
-    """:func:`exact_shell` in a forked child with :data:`EXACT_WALL_S` (a crash, a hang or
+def _exact_in_child(brep: bytes, wall: float, wall_s: float) -> Integrals | str:
+    """:func:`exact_shell` in a forked child given ``wall_s`` seconds (a crash, a hang or
     running out of memory there is a note, not a dead process)."""
     import dataclasses
 
@@ -192,11 +203,11 @@ def _exact_in_child(brep: bytes, wall: float) -> Integrals | str:
         got = exact_shell(kernel.read_brep(brep), wall)
         return {"error": got} if isinstance(got, str) else {"ok": got.as_json()}
 
-    limits = dataclasses.replace(PARENT, wall_s=EXACT_WALL_S)
+    limits = dataclasses.replace(PARENT, wall_s=wall_s)
     try:
         out = run_limited(work, stage="mass", limits=limits)
     except ChildFailure as exc:
-        why = {"timeout": f"OCCT's inward offset took over {EXACT_WALL_S:g} s",
+        why = {"timeout": f"OCCT's inward offset took over {wall_s:g} s",
                "killed": "OCCT's inward offset crashed", "crash": "OCCT's inward offset crashed",
                "memory": "OCCT's inward offset ran out of memory"}.get(exc.kind, f"the exact shell failed: {exc}")
         return why
