@@ -58,5 +58,15 @@ def test_a_wall_too_thick_is_a_warning_in_the_report(tmp_path):
     assert arm["method"] == "solid" and arm["note"] in found[0]["message"]
 
 
+def test_weighing_hollow_parts_is_a_progress_step(tmp_path):
+    lines: list[str] = []
+    res = build(Path("lamp.py"), tmp_path / "lamp", source=lamp(), formats=("step",), gates=False,
+                progress=lines.append)
+    assert res.ok, res.reason
+    # the parent announces the export, the child weighs first and then says it goes on
+    assert lines[:4] == ["compiling lamp", "writing 3 parts as step, viewer",
+                         "weighing 1 hollow part(s) as shells", "writing 3 parts as step, viewer"], lines
+
+
 def test_no_masses_no_table():
     assert masses_md(None) == [] and masses_md({"parts": []}) == []

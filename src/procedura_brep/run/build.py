@@ -298,7 +298,13 @@ def verify_and_export(model: CompiledModel, source: str, root: Path, fmts: tuple
     sections: dict[str, Any] = {}
     gate_errors: list[Finding] = []
     battery: list[Finding] = []
+    hollow = sum(p.hollow is not None for p in model.parts)
+    if hollow:  # exact shells take a forked offset each (up to config'd seconds): say so
+        send({"stage": "masses", "line": f"weighing {hollow} hollow part(s) as shells"})
     masses = _masses(model, sections, timings)  # before any fork: its children inherit the shells
+    if hollow:  # back to the stage the parent announced
+        send({"stage": "gates" if gates else "export",
+              "line": _GATES_LINE if gates else _export_line(model, fmts)})
     ahead = None
     if gates and OVERLAP_EXPORT:
         from .overlap import start_export
