@@ -15,12 +15,13 @@ import pytest
 
 from .harness import GOLDEN_DIR, check, compare, dumps, summarize, updating
 
-PROGRAMS = ("rover", "arm", "vise")
+PROGRAMS = ("rover", "arm", "vise", "gearbox")
 #: Minimum requirements per program: parts, distinct static mate types, kinematic mate counts.
 REQUIRED = {
     "rover": {"parts": 25, "static_types": 5, "revolute": 6 + 4, "prismatic": 0, "spherical": 0},
     "arm": {"parts": 12, "static_types": 2, "revolute": 5, "prismatic": 2, "spherical": 0},
     "vise": {"parts": 8, "static_types": 2, "revolute": 0, "prismatic": 1, "spherical": 1},
+    "gearbox": {"parts": 10, "static_types": 2, "revolute": 3, "prismatic": 0, "spherical": 0},
 }
 
 
@@ -113,6 +114,21 @@ def test_vise_specifics(worker):
     sph = [m for m in model.mates if m.type == "spherical"]
     assert len(sph) == 1 and sph[0].options["cone"] > 0
     assert sum(m.type == "prismatic" for m in model.mates) == 1
+
+
+def test_gearbox_specifics(worker):
+    model = _compiled("gearbox", worker)
+    shafts = [m for m in model.mates if m.type == "revolute"]
+    assert len(shafts) == 3 and all(abs(m.world_frame[2, 2] - 1) < 1e-9 for m in shafts)  # +Z
+    assert [(c.type, c.driver, c.driven) for c in model.couplings] == [
+        ("gear", "input_shaft_seat", "countershaft_seat"),
+        ("gear", "countershaft_seat", "output_shaft_seat")]
+    assert [c.inputs["driver_teeth"] for c in model.couplings] == ["z1", "z3"]
+    total = model.couplings[0].ratio * model.couplings[1].ratio
+    p = model.params
+    assert total == pytest.approx(p["z1"] / p["z2"] * p["z3"] / p["z4"])  # 1/9, same sense
+    bolts = [m for m in model.mates if m.child.startswith("bolt_")]
+    assert len(bolts) == 4 and {m.parent for m in bolts} == {"cover"}
 
 
 EDIT_CASES = [(n, p) for n in PROGRAMS for p in _edits(n)]

@@ -179,14 +179,13 @@ def level_edges(shape: Any, line: Line) -> dict[float, list[np.ndarray]]:
     return out
 
 
-def measure_teeth(shape: Any, line: Line, t: float, *, internal: bool) -> Teeth | None:
-    """The teeth of ``shape`` about ``line`` (see the module doc): read on the outline in the
-    plane across the line nearest ``t`` that shows at least three teeth; None when none does
-    (a smooth disc).
+def teeth_levels(shape: Any, line: Line, *, internal: bool) -> list[tuple[float, Teeth]]:
+    """Every plane across ``line`` whose outline shows teeth (at least three): its param along
+    the line and the teeth read there.
 
     The outline's radius is cut just inside its largest radius (a ring gear: just outside its
     smallest); every crossing is a tooth flank, so the count is half the crossings."""
-    best: tuple[float, Teeth] | None = None
+    out = []
     for level, edges in level_edges(shape, line).items():
         radii = [np.linalg.norm(np.cross(e - line.origin, line.direction), axis=1) for e in edges]
         allr = np.concatenate(radii)
@@ -194,11 +193,16 @@ def measure_teeth(shape: Any, line: Line, t: float, *, internal: bool) -> Teeth 
         eps = max(1e-4, 1e-5 * tip)
         cut = tip + eps if internal else tip - eps
         crossings = sum(int(np.count_nonzero(np.diff(np.sign(r - cut)) != 0)) for r in radii)
-        if crossings < 6:
-            continue
-        if best is None or abs(level - t) < best[0]:
-            best = (abs(level - t), Teeth(crossings // 2, tip, internal))
-    return None if best is None else best[1]
+        if crossings >= 6:
+            out.append((level, Teeth(crossings // 2, tip, internal)))
+    return out
+
+
+def measure_teeth(shape: Any, line: Line, t: float, *, internal: bool) -> Teeth | None:
+    """The teeth of ``shape`` about ``line`` on its toothed outline nearest ``t`` (see
+    :func:`teeth_levels`); None when no outline shows teeth (a smooth disc)."""
+    levels = teeth_levels(shape, line, internal=internal)
+    return min(levels, key=lambda lv: abs(lv[0] - t))[1] if levels else None
 
 
 @dataclass
@@ -210,6 +214,26 @@ class Mesh:
     t: float
     teeth_a: Teeth | None
     teeth_b: Teeth | None
+
+
+def _facing(pa: CompiledPart, line_a: Line, pb: CompiledPart, line_b: Line | None, t: float,
+            internal_b: bool) -> tuple[Teeth | None, Teeth | None]:
+    """The teeth of ``pa`` and ``pb`` on the outlines that face each other: of every toothed
+    plane of each, the two nearest along the axis (a cluster gear has two toothed bands; the
+    band its partner meets is the one whose end face lies level with the partner's). Without
+    ``line_b``, ``pa``'s outline nearest ``t``."""
+    levels_a = teeth_levels(pa.shape(), line_a, internal=False)
+    if line_b is None or not levels_a:
+        return (min(levels_a, key=lambda lv: abs(lv[0] - t))[1] if levels_a else None), None
+    levels_b = teeth_levels(pb.shape(), line_b, internal=internal_b)
+    if not levels_b:
+        return min(levels_a, key=lambda lv: abs(lv[0] - t))[1], None
+    # b's params along a's axis (the axes are parallel or opposed: the compile checked them)
+    sense = 1.0 if float(line_a.direction @ line_b.direction) >= 0 else -1.0
+    shift = float((line_b.origin - line_a.origin) @ line_a.direction)
+    best = min(((abs(la - (shift + sense * lb)), ta, tb) for la, ta in levels_a
+                for lb, tb in levels_b), key=lambda r: r[0])
+    return best[1], best[2]
 
 
 def find_pair(model: CompiledModel, group: dict[str, str], mate_a: CompiledMate,
@@ -239,11 +263,7 @@ def find_pair(model: CompiledModel, group: dict[str, str], mate_a: CompiledMate,
             if hi <= lo:
                 continue
             t = (lo + hi) / 2
-            ta = measure_teeth(pa.shape(), line_a, t, internal=False)
-            tb = None
-            if line_b is not None:
-                tb_t = float((line_a.origin + t * line_a.direction - line_b.origin) @ line_b.direction)
-                tb = measure_teeth(pb.shape(), line_b, tb_t, internal=internal_b)
+            ta, tb = _facing(pa, line_a, pb, line_b, t, internal_b)
             row = Mesh(pa, pb, t, ta, tb)
             if ta is not None and (tb is not None or line_b is None):
                 return row
