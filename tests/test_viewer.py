@@ -62,6 +62,7 @@ def arm(worker, tmp_path_factory):
     report = {"status": "gates_failed", "findings": [
         {"code": "interference", "message": "forearm and wrist overlap by 0.4 mm3",
          "part": "forearm", "other": "wrist", "severity": "error"},
+        {"code": "mate-area", "message": "hovers", "mate": "forearm_elbow", "severity": "warning"},
         {"code": "mesh-metrics", "message": "about the whole model", "severity": "info"}]}
     (out / "viewer" / "findings.js").write_bytes(findings_js(report))
     return model, articulate(model), out
@@ -204,11 +205,15 @@ def test_the_page_poses_isolates_and_lists_findings(browser, arm, tmp_path):
 
     # a finding's click selects its part and shows it with its partner
     rows = page.locator(".finding")
-    assert rows.count() == 2
-    rows.first.click()
+    assert rows.count() == 3
+    rows.nth(0).click()
     assert page.evaluate("viewer.selected()") == "forearm"
     assert sorted(page.evaluate("viewer.isolated()")) == ["forearm", "wrist"]
     assert "selected" in (page.get_attribute('.part-row[data-part="forearm"]', "class") or "")
+    rows.nth(1).click()  # a mate's finding: its child and parent
+    assert sorted(page.evaluate("viewer.isolated()")) == ["forearm", "upper_arm"]
+    rows.nth(2).click()  # about the whole model: nothing to show, nothing changes
+    assert sorted(page.evaluate("viewer.isolated()")) == ["forearm", "upper_arm"]
 
     # exploded: every part's centre moves away from the model's centre; mate frames on a toggle
     page.click("#show-all")

@@ -307,10 +307,13 @@
   FINDINGS.findings.forEach((f) => {
     const sev = f.severity || 'error';
     const row = el('div', 'finding ' + sev);
-    const names = [f.part, f.other].filter((n) => n && partByName[n]);
+    let names = [f.part, f.other].filter((n) => n && partByName[n]);
+    const mate = DATA.mates.find((m) => m.name === f.mate);
+    if (!names.length && mate) names = [mate.child, mate.parent];  // a mate's finding: its two parts
     row.dataset.part = f.part || '';
     row.append(el('span', 'code', '[' + sev + '] ' + (f.code || '?') + ': '), el('span', null, f.message || ''));
     if (f.part) row.append(el('div', 'note', 'part ' + f.part + (f.other ? ' and ' + f.other : '')));
+    else if (f.mate) row.append(el('div', 'note', 'mate ' + f.mate));
     if (names.length) {
       row.title = 'click: select ' + names[0] + ' and show only ' + names.join(' and ');
       row.addEventListener('click', () => { select(names[0]); isolate(names); render(); });
