@@ -287,6 +287,29 @@ def test_a_cylindrical_joint_gets_two_sliders_and_a_ball_joint_a_note(browser, w
     assert joint["type"] == "spherical" and joint["dofs"] == [] and "not posed" in joint["note"]
 
 
+@pytest.mark.slow  # a compile and a browser page
+def test_coupled_joints_follow_their_driver_as_the_urdf_mimic(browser, worker, tmp_path):
+    model = compile_source((ROOT / "tests" / "program" / "transmission.py").read_text(),
+                           name="transmission", worker=worker)
+    art = articulate(model)
+    write_bundle(model, tmp_path, formats="viewer")
+    page, errors = _open(browser, tmp_path)
+    rest = {n: _world(page, n) for n in ("wheel", "rack", "nut", "pinion")}
+    assert page.evaluate("document.querySelector('input[data-dof=wheel_hub]').disabled")
+    _slide(page, "pinion_hub", 30)
+    _slide(page, "screw_hub", 90)
+    for part, joint in (("wheel", "wheel_hub"), ("rack", "rack_slide"), ("nut", "nut_slide")):
+        head, ratio, offset = art.root_driver(joint)
+        q = offset + ratio * math.radians(30 if head == "pinion_hub" else 90)  # SI
+        motion = _tz(q * 1000) if art.joint(joint).kind.slides else _rz(math.degrees(q))
+        np.testing.assert_allclose(_world(page, part), _about(art.joint(joint).frame, motion) @ rest[part],
+                                   atol=1e-6, err_msg=part)
+    np.testing.assert_allclose(_world(page, "pinion"),
+                               _about(art.joint("pinion_hub").frame, _rz(30)) @ rest["pinion"], atol=1e-6)
+    assert errors == []
+    page.close()
+
+
 # ---- procedura-brep view ----------------------------------------------------------------------
 
 def test_view_refuses_a_directory_without_a_viewer(tmp_path):

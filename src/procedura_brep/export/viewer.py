@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from ..articulation.tree import Articulation, Joint
+from ..mates.kinds import JointKind
 from ..program.model import CompiledModel
 from .meshes import part_mesh, smooth_normals
 
@@ -81,21 +82,40 @@ def _mesh_entry(model: CompiledModel, name: str) -> dict[str, Any]:
             "center": [float(x) for x in (lo + hi) / 2]}
 
 
-def _dofs(j: Joint) -> tuple[list[dict[str, Any]], str | None]:
+def _scale(kind: JointKind) -> float:
+    """SI (rad, m) to a slider's unit (deg, mm)."""
+    return 1000.0 if kind.slides else math.degrees(1.0)
+
+
+def _dofs(j: Joint, art: Articulation) -> tuple[list[dict[str, Any]], str | None]:
     """The sliders of joint ``j`` (deg or mm, relative to the compiled pose as the URDF's
-    positions are) and a note for what has none."""
+    positions are) and a note for what has none. A joint a coupling drives (a gear, a rack, a
+    screw, a belt) follows the joint at the head of its chain: ``driver``, and ``ratio`` and
+    ``offset`` in slider units (``value = offset + ratio * driver's value``), as the URDF's
+    ``<mimic>``."""
     out = []
+    note = None
     for d in j.dofs():
         kind = d.kind
-        scale = 1000.0 if kind.slides else math.degrees(1.0)
+        scale = _scale(kind)
         if d.lower is None or d.upper is None:
             lo, hi = -ENDLESS_DEG, ENDLESS_DEG
         else:
             lo, hi = d.lower * scale, d.upper * scale
-        out.append({"name": d.name, "type": d.type, "motion": "slide" if kind.slides else "turn",
-                    "unit": "mm" if kind.slides else "deg", "lower": lo, "upper": hi,
-                    "endless": d.lower is None})
-    note = None
+        row: dict[str, Any] = {"name": d.name, "type": d.type,
+                               "motion": "slide" if kind.slides else "turn",
+                               "unit": "mm" if kind.slides else "deg", "lower": lo, "upper": hi,
+                               "endless": d.lower is None}
+        coupling = j.coupling
+        if coupling is not None and d.name == j.name:
+            if coupling.type == "linkage":  # no constant ratio: a closed loop
+                note = "in a closed loop (a linkage): posed on its own here, the loop is not solved"
+            else:
+                head, ratio, offset = art.root_driver(j.name)
+                row.update(driver=head, coupling=coupling.type,
+                           ratio=ratio * scale / _scale(art.joint(head).kind),
+                           offset=offset * scale)
+        out.append(row)
     if j.kind.ball:
         note = "a ball joint (3 rotations): not posed here"
     return out, note
@@ -113,7 +133,7 @@ def viewer_data(model: CompiledModel, art: Articulation) -> dict[str, Any]:
                       "rest": _cols(np.linalg.inv(parent) @ lk.frame), "world": _cols(lk.frame)})
     joints = []
     for j in art.joints:
-        dofs, note = _dofs(j)
+        dofs, note = _dofs(j, art)
         joints.append({"name": j.name, "type": j.type, "parent": j.parent, "child": j.child,
                        "world": _cols(j.frame), "flipped": j.flipped, "dofs": dofs, "note": note,
                        "subtree": art.subtree(j.child)})

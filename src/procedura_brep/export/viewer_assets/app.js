@@ -195,7 +195,21 @@
     applyVisibility();
   }
 
-  function update() { pose(); applyVisibility(); render(); }
+  // a joint a coupling drives follows the joint at the head of its chain (a gear, a rack, a
+  // screw, a belt: value = offset + ratio * driver's value, as the URDF's <mimic>)
+  function follow() {
+    DATA.joints.forEach((j) => j.dofs.forEach((d) => {
+      if (!d.driver) return;
+      state.values[d.name] = d.offset + d.ratio * (state.values[d.driver] || 0);
+      const s = sliders[d.name];
+      if (s) {
+        s.input.value = String(state.values[d.name]);
+        s.value.textContent = fmt(state.values[d.name]) + ' ' + d.unit;
+      }
+    }));
+  }
+
+  function update() { follow(); pose(); applyVisibility(); render(); }
 
   // ---- the panel ---------------------------------------------------------------------------
   document.title = DATA.name + ' - procedura-brep viewer';
@@ -269,7 +283,7 @@
       const box = el('div', 'dof');
       const label = el('div', 'label');
       const value = el('span', 'value', '0.0 ' + d.unit);
-      label.append(el('span', null, d.name + ' (' + d.type + ')'), value);
+      label.append(el('span', null, d.name + ' (' + (d.driver ? d.coupling + ' from ' + d.driver : d.type) + ')'), value);
       const input = el('input');
       input.type = 'range';
       input.min = String(d.lower);
@@ -277,9 +291,15 @@
       input.step = 'any';
       input.value = '0';
       input.dataset.dof = d.name;
+      if (d.driver) {  // moved by its driver only
+        input.disabled = true;
+        input.dataset.driver = d.driver;
+      }
       input.title = d.name + ': ' + fmt(d.lower) + ' to ' + fmt(d.upper) + ' ' + d.unit +
         (d.endless ? ' (no limits: one turn shown)' : '') + ', 0 = the compiled pose' +
-        (j.flipped ? '; a wheel: positive rolls forward (axis = the mate frame\'s -Z)' : '');
+        (j.flipped ? '; a wheel: positive rolls forward (axis = the mate frame\'s -Z)' : '') +
+        (d.driver ? '; follows ' + d.driver + ': ' + fmt(d.offset) + ' + ' + d.ratio.toPrecision(6) +
+         ' x ' + d.driver : '');
       input.addEventListener('input', () => {
         state.values[d.name] = Number(input.value);
         value.textContent = fmt(state.values[d.name]) + ' ' + d.unit;
