@@ -22,7 +22,7 @@ from .pieces import pieces_gate
 from .policy import GateResult, decide, result
 
 #: Version of the report layout below; bump when a field changes meaning.
-REPORT_VERSION: int = 3
+REPORT_VERSION: int = 4
 
 
 @dataclass
