@@ -134,6 +134,8 @@ class Tolerances:
             square (rack and pinion) within this angle (``program/couplings.py``).
         coupling_ratio_rel: battery B8: a coupling's measured driven/driver ratio is within
             this fraction of the declared one.
+        coupling_cut_mm: battery B8: a linkage's cut joint stays closed within this distance
+            while its driver moves.
         coupling_centre_mm: coupling gate: a gear pair's centre distance is (z1 +- z2) m / 2,
             a pinion's axis lies its pitch radius from the rack's pitch line, and a nut's slide
             axis is the screw's axis, each within this (``gates/coupling.py``).
@@ -203,6 +205,7 @@ class Tolerances:
     origin_offset_min_mm: float = 5.0
     coupling_axis_deg: float = 0.5
     coupling_ratio_rel: float = 0.01
+    coupling_cut_mm: float = 0.1
     coupling_centre_mm: float = 0.05
     coupling_module_rel: float = 0.02
     coupling_samples: int = 7

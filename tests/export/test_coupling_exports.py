@@ -134,3 +134,43 @@ def test_usd_coupling_attributes_and_no_drive(model, tmp_path):
     assert stage.GetPrimAtPath(f"{root}/joints/pinion_hub").HasAPI(UsdPhysics.DriveAPI, "angular")
     res = check_b6(art, path)
     assert res.passed, res.message
+
+
+FOURBAR = (Path(__file__).parents[1] / "program" / "fourbar.py").read_text()
+
+
+def test_a_linkage_is_a_tree_plus_a_cut_in_every_format(worker, tmp_path):
+    import yourdfpy
+    from pxr import Usd, UsdPhysics
+    m = worker.compile(FOURBAR)
+    art = articulate(m)
+    # MJCF: a connect at the cut's anchor in the rocker's frame; only the crank has a servo
+    spec = build_mjcf(m, art=art).spec
+    (eq,) = spec.equalities
+    assert (eq.name, eq.type, eq.name1, eq.name2) == ("loop_pin", mujoco.mjtEq.mjEQ_CONNECT, "rocker", "coupler")
+    assert eq.data[:3] == pytest.approx([0.0, 0.09, 0.008])
+    mj = spec.compile()
+    assert [mj.actuator(i).name for i in range(mj.nu)] == ["crank_base"]
+    assert mj.njnt == 3  # the cut is no joint
+    # URDF: the tree, the cut named in a comment, no mimic; yourdfpy valid
+    for rel, data in urdf_files(m, art=art).items():
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / rel).write_bytes(data)
+    text = (tmp_path / "robot.urdf").read_text()
+    assert "<!-- loop closure: mate loop_pin (revolute) joins link coupler to link rocker" in text
+    assert "<mimic" not in text and 'name="loop_pin"' not in text
+    assert yourdfpy.URDF.load(str(tmp_path / "robot.urdf"), build_scene_graph=True, load_meshes=False).validate()
+    assert check_b5(art, link_masses(m, art), tmp_path).passed
+    # USD: the cut joint excluded from the articulation, undriven; validators clean
+    path = tmp_path / "model.usda"
+    path.write_text(usda_text(m, art=art))
+    stage = Usd.Stage.Open(str(path))
+    root = stage.GetDefaultPrim().GetPath()
+    cut = UsdPhysics.Joint(stage.GetPrimAtPath(f"{root}/joints/loop_pin"))
+    assert cut.GetExcludeFromArticulationAttr().Get() is True
+    assert not cut.GetPrim().HasAPI(UsdPhysics.DriveAPI, "angular")
+    rocker = stage.GetPrimAtPath(f"{root}/joints/rocker_base")
+    assert rocker.GetAttribute(f"{COUPLING_NS}:type").Get() == "linkage"
+    assert not rocker.HasAPI(UsdPhysics.DriveAPI, "angular")
+    res = check_b6(art, path)
+    assert res.passed, res.message

@@ -74,3 +74,24 @@ def test_b1_b2_b7_b8_pass_with_coupled_joints(model, tmp_path):
     assert joints["wheel_hub"]["driven_by"] == "pinion_hub"  # swept with its driver, no servo
     assert "reach" in joints["pinion_hub"]
     assert "B8" in rep.timings
+
+
+FOURBAR = (Path(__file__).parents[1] / "program" / "fourbar.py").read_text()
+
+
+def test_b8_keeps_a_four_bar_closed_and_fails_without_its_connect(worker):
+    import mujoco
+    m4 = worker.compile(FOURBAR)
+    art = articulate(m4)
+    m = build_mjcf(m4, art=art).spec.compile()
+    res, _ = check_b8(m, art)
+    assert res.passed, res.message
+    row = res.measured["couplings"]["rocker_base__crank_base"]
+    assert row["max_cut_gap_mm"] <= TOL.coupling_cut_mm
+    # a parallelogram: the rocker turns as far as the crank
+    assert row["driven_travel"] == pytest.approx(row["driver_travel"], rel=0.01)
+    assert row["driver_travel"] >= 0.9 * row["commanded_travel"]
+    m.eq_active0[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, "loop_pin")] = 0  # the loop left open
+    res, traj = check_b8(m, art)
+    assert not res.passed and traj
+    assert "linkage rocker_base__crank_base: " in res.message and "the cut joint 'loop_pin' opened by" in res.message

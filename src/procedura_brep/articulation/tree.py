@@ -88,6 +88,31 @@ class Coupling:
     source: CompiledCoupling = field(repr=False, compare=False)
 
 
+@dataclass(frozen=True)
+class Cut:
+    """A linkage's cut joint: a kinematic mate that closes a loop, left out of the tree.
+
+    Attributes:
+        name: the mate name.
+        type: its mate type (revolute or spherical).
+        parent, child: the links it joins (its parent part's link, its child part's).
+        frame: 4x4 world frame (mm) of its anchor at the compiled pose, where the loop meets.
+        mate: the source mate.
+    """
+
+    name: str
+    type: str
+    parent: str
+    child: str
+    frame: np.ndarray = field(repr=False)
+    mate: CompiledMate = field(repr=False, compare=False)
+
+    @property
+    def anchor_m(self) -> np.ndarray:
+        """World anchor in metres."""
+        return self.frame[:3, 3] / 1000.0
+
+
 def default_drive(jtype: JointType | DofType) -> Drive:
     """The drive a joint of this type gets: velocity for a continuous turn, else position."""
     return joint_kind(jtype).default_drive
@@ -208,7 +233,10 @@ class Articulation:
         part_link: part name -> the link it belongs to.
         wheels: the wheel joints (by evidence, :mod:`.wheels`), driven by one uniform command.
         couplings: the program's couplings on the exported joints (:class:`Coupling`); each
-            driven joint's ``coupling`` is its entry here.
+            driven joint's ``coupling`` is its entry here. A linkage is one entry per joint of
+            its loop other than the driver (type ``linkage``, ratio 0: they follow passively).
+        cuts: the linkages' cut joints (:class:`Cut`): kinematic mates left out of the tree,
+            closed by the exports as a point constraint.
         base: ``free`` (a free root joint) or ``welded`` (fixed to the world); :func:`articulate`
             frees the base exactly when there are wheels. Exporters write this value as given.
     """
@@ -220,6 +248,7 @@ class Articulation:
     wheels: list[str] = field(default_factory=list)
     base: Base = "welded"
     couplings: list[Coupling] = field(default_factory=list)
+    cuts: list[Cut] = field(default_factory=list)
 
     @property
     def root(self) -> Link:
@@ -264,11 +293,12 @@ class Articulation:
     def root_driver(self, joint: str) -> tuple[str, float, float]:
         """``(joint at the head of the chain, ratio, offset)`` with ``q_joint = offset + ratio *
         q_head``: a driven joint followed up its chain of couplings (a gear train) to the joint
-        nobody drives (URDF's ``<mimic>`` names that one); an actuated joint is its own head."""
+        nobody drives (URDF's ``<mimic>`` names that one); an actuated joint is its own head, and
+        so is a joint a linkage moves (no constant ratio)."""
         ratio, offset, cur = 1.0, 0.0, joint
         for _ in range(len(self.couplings) + 1):  # couplings have no cycle (compile checks)
             c = self.joint(cur).coupling
-            if c is None:
+            if c is None or c.type == "linkage":
                 break
             ratio, offset = ratio * c.ratio, offset + ratio * c.offset
             cur = c.driver
@@ -372,7 +402,8 @@ def articulate(model: CompiledModel, *, evidence: dict[str, Any] | None = None) 
     members: dict[str, list[str]] = {}
     for p in model.parts:
         members.setdefault(part_link[p.name], []).append(p.name)
-    kin = [m for m in model.mates if m.kind == "kinematic"]
+    cut_names = {c.closes for c in model.couplings if c.type == "linkage"}
+    kin = [m for m in model.mates if m.kind == "kinematic" and m.name not in cut_names]
     joints_by_child: dict[str, Joint] = {}
     for m in kin:
         for end in (m.child, m.parent):
@@ -424,6 +455,9 @@ def articulate(model: CompiledModel, *, evidence: dict[str, Any] | None = None) 
             f"not joined to the root {root_name!r}: {names}; add a mate from each to a part "
             f"declared before it")
     art = Articulation(model.name, links, joints, part_link)
+    art.cuts = [Cut(m.name, m.type, part_link[m.parent], part_link[m.child],
+                    np.asarray(m.world_frame, float), m)
+                for m in model.mates if m.name in cut_names]
     _drive_wheels(model, art, evidence)
     art.base = "free" if art.wheels else "welded"
     _couple(model, art)
@@ -439,6 +473,7 @@ def _drive_wheels(model: CompiledModel, art: Articulation,
     art.wheels = find_wheels(model, {lk.name: lk.parts for lk in art.links}, art.joints, art.subtree,
                              evidence=evidence)
     driven = {c.driven for c in model.couplings}
+    driven |= {j.name for cut in art.cuts for j in _loop(art, cut)}  # a loop's joints follow
     art.wheels = [w for w in art.wheels if w not in driven]  # a coupled wheel follows its driver
     if not art.wheels:
         return
@@ -451,16 +486,63 @@ def _drive_wheels(model: CompiledModel, art: Articulation,
             art.link(j.child).frame = j.frame.copy()
 
 
+def _path_up(art: Articulation, link: str) -> list[str]:
+    """``link`` and its ancestors up to the root."""
+    out = [link]
+    while (up := art.parent_of(out[-1])) is not None:
+        out.append(up)
+    return out
+
+
+def _loop(art: Articulation, cut: Cut) -> list[Joint]:
+    """The tree joints of the loop a cut closes: from each of its two links up to their common
+    ancestor."""
+    a, b = _path_up(art, cut.parent), _path_up(art, cut.child)
+    common = next(x for x in a if x in b)
+    links = a[:a.index(common)] + b[:b.index(common)]
+    return [art.joint(str(art.link(lk).parent_joint)) for lk in links]
+
+
+def _linkage(art: Articulation, c: CompiledCoupling) -> None:
+    """A linkage's loop: every joint but the driver follows passively (one entry each)."""
+    cut = next(x for x in art.cuts if x.name == c.closes)
+    loop = _loop(art, cut)
+    names = [j.name for j in loop]
+    for role, name in (("driven", c.driven), ("driver", c.driver)):
+        if name not in names:
+            raise ArticulationError(f"coupling {c.name}: its {role} joint {name!r} is not on the loop "
+                                    f"that {c.closes!r} closes ({', '.join(names)})")
+    for j in loop:
+        if j.name == c.driver:
+            continue
+        if j.coupling is not None:
+            raise ArticulationError(f"coupling {c.name}: joint {j.name!r} of its loop is already "
+                                    f"driven by {j.coupling.driver!r}")
+        if j.kind.compound or j.kind.ball:
+            raise ArticulationError(f"coupling {c.name}: a loop's joints are revolute or prismatic; "
+                                    f"{j.name!r} is {j.type}")
+        cp = Coupling(f"{j.name}__{c.driver}", "linkage", j.name, c.driver, 0.0, 0.0,
+                      (cut.child, cut.parent), c)
+        art.couplings.append(cp)
+        j.coupling = cp
+
+
 def _couple(model: CompiledModel, art: Articulation) -> None:
     """The model's couplings on the exported joints: SI ratio, the sign of a flipped wheel."""
     from ..program.couplings import si_ratio
     names = {j.name for j in art.joints}
     for c in model.couplings:
+        if c.type == "linkage":
+            _linkage(art, c)
+            continue
         for role, name in (("driven", c.driven), ("driver", c.driver)):
             if name not in names:
                 raise ArticulationError(f"coupling {c.name}: its {role} mate {name!r} is not a joint "
                                         f"of the articulation")
         driven, driver = art.joint(c.driven), art.joint(c.driver)
+        if driven.coupling is not None:
+            raise ArticulationError(f"coupling {c.name}: joint {c.driven!r} is already driven by "
+                                    f"{driven.coupling.driver!r}")
         if driven.kind.compound or driven.kind.ball or driver.kind.compound or driver.kind.ball:
             raise ArticulationError(f"coupling {c.name}: only revolute and prismatic joints couple")
         sign = (-1.0 if driven.flipped else 1.0) * (-1.0 if driver.flipped else 1.0)

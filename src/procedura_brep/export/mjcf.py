@@ -36,7 +36,11 @@ sum of the two joints' inverse inertias, ignoring the coefficient, which oversta
 constraint's true inverse inertia ``w1 + k^2 w2`` whenever ``|k| < 1``; a lead screw's nut
 (0.64 mm per rad) then drifted 27 mm off its screw. With ``|k| >= 1`` the estimate is never
 above the truth, and with :data:`COUPLING_SOLREF` and the near-hard :data:`COUPLING_SOLIMP`
-every coupling of ``tests/program/transmission.py`` holds within 0.05 % of its ratio. A chain
+every coupling of ``tests/program/transmission.py`` holds within 0.05 % of its ratio. A
+linkage's cut joint (:class:`~procedura_brep.articulation.tree.Cut`) is no joint of the tree but
+an ``<equality><connect name="<cut mate>" body1="<its parent link>" body2="<its child link>"
+anchor=...>`` at its anchor (body1's frame), :data:`LOOP_SOLREF` and the same impedance; the loop's other
+joints have no servo (the driver turns the loop). A chain
 head's servo is tuned for its own inertia plus what its couplings reflect onto it
 (``ratio^2 M_jj`` of each joint it drives), and a speed-driven head that is not a wheel gets the
 inertia-scaled gain ``2 zeta M omega`` instead of the stall gain: MuJoCo's ``implicitfast``
@@ -73,6 +77,9 @@ MIN_VELOCITY = 1e-9
 SERVO_ZETA = 1.0
 #: Time constant and damping ratio of a coupling's equality (>= 2 timesteps: stable).
 COUPLING_SOLREF = (0.01, 1.0)
+#: Time constant of a linkage's connect (2.5 timesteps): the loop's gap under the battery's ramp
+#: scales with its square (0.088 mm at 0.01 s, 0.026 mm at 0.005 s on tests/program/fourbar.py).
+LOOP_SOLREF = (0.005, 1.0)
 #: Impedance of a coupling's equality: near hard at every violation (see the module docstring).
 COUPLING_SOLIMP = (0.9999, 0.9999, 0.001, 0.5, 2.0)
 #: Mesh directory of ``model.xml`` relative to the bundle root (shared with the URDF).
@@ -188,6 +195,8 @@ def _reflected(art: Articulation, m, mass_matrix: np.ndarray) -> dict[str, float
     import mujoco
     out: dict[str, float] = {}
     for c in art.couplings:
+        if c.type == "linkage":
+            continue
         head, ratio, _ = art.root_driver(c.driven)
         dof = int(m.jnt_dofadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, c.driven)])
         out[head] = out.get(head, 0.0) + ratio**2 * float(mass_matrix[dof, dof])
@@ -245,7 +254,15 @@ def _build(model: CompiledModel, art: Articulation, masses: dict[str, MassProps]
             continue
         for dof in j.dofs():  # one joint; a cylindrical joint's slide then turn, same axis
             _dof_joint(spec, body, dof, (gains or {}).get(dof.name, 1.0))
+    for cut in art.cuts:  # a linkage's loop: a point constraint at the cut joint's anchor
+        anchor = np.linalg.inv(art.link(cut.parent).frame) @ cut.frame
+        spec.add_equality(name=cut.name, type=mujoco.mjtEq.mjEQ_CONNECT, objtype=mujoco.mjtObj.mjOBJ_BODY,
+                          name1=cut.parent, name2=cut.child,
+                          data=[float(x) for x in anchor[:3, 3] / 1000.0] + [0.0] * 9,
+                          solref=list(LOOP_SOLREF), solimp=list(COUPLING_SOLIMP))
     for c in art.couplings:
+        if c.type == "linkage":  # moved by the loop (the connect above), no ratio
+            continue
         j1, j2, a0, a1 = equality_form(c)
         spec.add_equality(name=c.name, type=mujoco.mjtEq.mjEQ_JOINT, name1=j1,
                           name2=j2, data=[a0, a1, 0, 0, 0] + [0] * 7,

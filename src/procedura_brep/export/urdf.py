@@ -21,7 +21,9 @@ A coupled joint (``couple(...)``) carries ``<mimic joint="<driver>" multiplier="
 offset="<offset>"/>`` (SI: rad/rad, m/rad, rad/m), in both profiles. A chain of couplings (a gear
 train) names the chain's head, the joint nobody drives, with the product of the ratios
 (:meth:`~procedura_brep.articulation.tree.Articulation.root_driver`): URDF consumers
-resolve one level of mimic only.
+resolve one level of mimic only. A linkage (a closed loop) is the tree without its cut joint
+(URDF has no loops): the cut is named in an XML comment at the end of the robot, and the loop's
+other joints carry no mimic (they follow the loop, not a ratio).
 
 Link frames follow :mod:`procedura_brep.articulation.tree` (a child link's origin is its joint
 anchor, its +Z the joint axis), so every joint axis is ``0 0 1``. Units: metres, kg, radians.
@@ -216,10 +218,16 @@ def urdf_text(model: CompiledModel, *, profile: Profile = "strict",
                    turn.lower, turn.upper, (turn.effort, turn.velocity))
         else:
             _joint(robot, j.name, kind, j.parent, j.child, org, "0 0 1", j, j.lower, j.upper)
-            if j.coupling is not None:
+            if j.coupling is not None and j.coupling.type != "linkage":
                 head, ratio, offset = art.root_driver(j.name)
                 el = robot.findall("joint")[-1]
                 ET.SubElement(el, "mimic", joint=head, multiplier=fmt(ratio), offset=fmt(offset))
+    for cut in art.cuts:  # URDF is a tree: a loop's cut joint is named, not written
+        robot.append(ET.Comment(
+            f" loop closure: mate {cut.name} ({cut.type}) joins link {cut.child} to link {cut.parent} "
+            f"at {vec(cut.anchor_m)} m (world); URDF has no loops, so it is left out: model.xml "
+            f"closes it with an equality connect, model.usda with a joint excluded from the "
+            f"articulation "))
     ET.indent(robot)
     return '<?xml version="1.0"?>\n' + ET.tostring(robot, encoding="unicode") + "\n"
 

@@ -28,7 +28,9 @@ schema for a joint-to-joint ratio), and carries custom attributes in our namespa
 (:data:`COUPLING_NS`): ``procedura:coupling:driver`` (a relationship to the driver joint's prim),
 ``:type`` (gear, rack_pinion, screw, belt), ``:ratio`` and ``:offset`` in the joints' USD units
 (degrees for a revolute, metres for a prismatic: the units of their limits here), with
-``q_driven = offset + ratio * q_driver`` counted from the authored pose.
+``q_driven = offset + ratio * q_driver`` counted from the authored pose. A linkage's cut joint
+is written as its joint with ``physics:excludeFromArticulation = true`` (a loop closure), no
+drive; the loop's other joints carry ``driver`` and ``type = "linkage"`` only (no ratio).
 """
 
 from __future__ import annotations
@@ -189,7 +191,28 @@ def usd_stage(model: CompiledModel, *, art: Articulation | None = None,
                 drive.CreateStiffnessAttr(float(j.effort * DRIVE_STIFFNESS_PER_EFFORT))
                 drive.CreateDampingAttr(float(j.effort * DRIVE_DAMPING_PER_EFFORT))
                 drive.CreateTargetPositionAttr(0.0)
+    for cut in art.cuts:
+        _cut_joint(stage, f"{root}/joints/{cut.name}", cut, art, root)
     return stage
+
+
+def _cut_joint(stage, path: str, cut, art: Articulation, root: str) -> None:
+    """A linkage's cut joint: its UsdPhysics joint, excluded from the articulation (a loop
+    closure), undriven."""
+    from pxr import Gf, UsdPhysics
+
+    from ..mates.vocabulary import TYPES
+    kind = TYPES[cut.type].joint_kind(cut.mate.options)
+    jp = getattr(UsdPhysics, kind.usd).Define(stage, path)
+    jp.CreateAxisAttr("X")
+    jp.CreateExcludeFromArticulationAttr(True)
+    jp.CreateBody0Rel().SetTargets([f"{root}/{cut.parent}"])
+    jp.CreateBody1Rel().SetTargets([f"{root}/{cut.child}"])
+    for body, setpos, setrot in ((cut.parent, jp.CreateLocalPos0Attr, jp.CreateLocalRot0Attr),
+                                 (cut.child, jp.CreateLocalPos1Attr, jp.CreateLocalRot1Attr)):
+        local = np.linalg.inv(art.link(body).frame) @ cut.frame
+        setpos(Gf.Vec3f(*[float(c) for c in local[:3, 3] / 1000.0]))
+        setrot(_quatf(local[:3, :3] @ Z_TO_X))
 
 
 def _coupling_attrs(prim, j, art: Articulation, joints: str) -> None:
@@ -200,9 +223,10 @@ def _coupling_attrs(prim, j, art: Articulation, joints: str) -> None:
     usd = {True: 1.0, False: float(np.degrees(1.0))}  # SI -> USD unit: m stays, rad -> deg
     ratio = c.ratio * usd[j.kind.slides] / usd[driver.kind.slides]
     prim.CreateRelationship(f"{COUPLING_NS}:driver", custom=True).SetTargets([f"{joints}/{c.driver}"])
-    values = (("type", Sdf.ValueTypeNames.Token, c.type),
-              ("ratio", Sdf.ValueTypeNames.Double, float(ratio)),
-              ("offset", Sdf.ValueTypeNames.Double, float(c.offset * usd[j.kind.slides])))
+    values: tuple[tuple[str, object, object], ...] = (("type", Sdf.ValueTypeNames.Token, c.type),)
+    if c.type != "linkage":  # a loop's joint follows the loop, at no constant ratio
+        values += (("ratio", Sdf.ValueTypeNames.Double, float(ratio)),
+                   ("offset", Sdf.ValueTypeNames.Double, float(c.offset * usd[j.kind.slides])))
     for key, vtype, value in values:
         prim.CreateAttribute(f"{COUPLING_NS}:{key}", vtype, custom=True).Set(value)
 

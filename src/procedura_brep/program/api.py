@@ -258,12 +258,16 @@ def couple(driven: str, driver: str, type: str, **named: Any) -> None:
             the rack part when it is not the slider), ``screw`` (driver revolute, driven
             prismatic; ``lead=`` in mm per turn, ``hand="right"|"left"``), ``belt`` (two
             revolutes, same sense; ``driver_teeth=``/``driven_teeth=`` or
-            ``driver_diameter=``/``driven_diameter=``).
+            ``driver_diameter=``/``driven_diameter=``), ``linkage`` (a closed loop: any two
+            joints of the loop; ``closes="<mate>"`` names the loop's cut joint, a revolute or
+            spherical mate whose child an earlier mate already placed; its frames must meet
+            at the compiled pose; the loop's joints other than the driver follow it).
 
     Example::
 
         couple("wheel_axle", "pinion_axle", "gear", driver_teeth="z_pinion", driven_teeth="z_wheel")
         couple("carriage_slide", "screw_turn", "screw", lead="screw_lead", hand="right")
+        couple("rocker_base", "crank_base", "linkage", closes="loop_pin")
     """
     from .couplings import check_keywords
     line = _caller_line()

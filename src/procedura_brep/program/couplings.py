@@ -30,6 +30,12 @@ Signs (``a``: a revolute's world axis, ``s``: a prismatic's world axis, both the
 * screw: a right-hand screw turning by ``+theta`` about ``a`` moves a nut that cannot turn by
   ``-lead * theta / 2 pi`` along ``a`` (a left-hand screw: ``+``), negated when the screw rides
   on the carriage and the nut is fixed; ``a`` and ``s`` must be parallel.
+
+A linkage (``closes="<mate>"``) has no constant ratio (0): the named mate, a revolute or
+spherical mate whose child an earlier mate already placed, is the loop's cut joint; its anchors
+must meet at the compiled pose (the compiler checks them, :func:`cut_gap`), and the exports close
+the loop there (MJCF ``<equality><connect>``). The driver turns the loop; the driven joint and
+every other joint of the loop follow passively (:mod:`procedura_brep.articulation.tree`).
 """
 
 from __future__ import annotations
@@ -147,9 +153,6 @@ def check_keywords(driven: Any, driver: Any, ctype: Any, named: dict[str, Any],
     if ctype == "linkage" and not out["closes"]:
         raise ProgramFormatError(f"{who}: linkage needs closes='<mate>', the mate that closes the "
                                  f"loop (its cut joint)", line=line)
-    if ctype == "linkage":
-        raise ProgramFormatError(f"{who}: linkage (a closed loop) is not supported yet; model the "
-                                 f"loop open, or couple its joints with a ratio type", line=line)
     return out
 
 
@@ -355,7 +358,36 @@ def _screw(d: CoupleDecl, driven: CompiledMate, driver: CompiledMate, v: dict[st
     return -hand * sense * (-1.0 if rides else 1.0) * v["lead"] / (2 * math.pi), (driver.child, nut)
 
 
-_RATIO = {"gear": _gear, "belt": _belt, "rack_pinion": _rack, "screw": _screw}
+def _linkage(d: CoupleDecl, driven: CompiledMate, driver: CompiledMate, v: dict[str, float],
+             model: CompiledModel) -> tuple[float, tuple[str, str]]:
+    cut_name = str(d.named["closes"])
+    mates = {m.name: m for m in model.mates}
+    cut = mates.get(cut_name)
+    if cut is None:
+        raise _Refusal(f"closes={cut_name!r} is not a mate of the program{did_you_mean(cut_name, mates)}")
+    if cut.type not in CUT_TYPES:
+        raise _Refusal(f"closes={cut_name!r}: a loop is cut at a {' or '.join(CUT_TYPES)} mate "
+                       f"(a pin or a ball the exports can close as a point); {cut_name} is {cut.type}")
+    if cut.primary:
+        raise _Refusal(f"closes={cut_name!r}: that mate places {cut.child}, so it closes no loop; "
+                       f"the cut is the mate whose child an earlier mate already placed")
+    if cut_name in (driven.name, driver.name):
+        raise _Refusal(f"closes={cut_name!r}: the cut joint cannot be the driver or the driven joint")
+    return 0.0, (cut.child, cut.parent)
+
+
+def cut_gap(parent_world: np.ndarray, fp: np.ndarray, child_world: np.ndarray, fc: np.ndarray
+            ) -> float:
+    """Distance (mm) between a cut joint's two anchors: the parent's frame origin and the
+    child's, each placed in the world."""
+    a = (parent_world @ fp)[:3, 3]
+    b = (child_world @ fc)[:3, 3]
+    return float(np.linalg.norm(a - b))
+
+
+#: Mate types a loop may be cut at: a point constraint closes them.
+CUT_TYPES = ("revolute", "spherical")
+_RATIO = {"gear": _gear, "belt": _belt, "rack_pinion": _rack, "screw": _screw, "linkage": _linkage}
 
 
 def si_ratio(c: CompiledCoupling, driven_type: str, driver_type: str) -> float:
@@ -364,5 +396,5 @@ def si_ratio(c: CompiledCoupling, driven_type: str, driver_type: str) -> float:
     return c.ratio * scale
 
 
-__all__ = ["MAX_COUPLINGS", "SPECS", "CouplingSpec", "CouplingType", "check_keywords", "resolve",
-           "si_ratio"]
+__all__ = ["CUT_TYPES", "MAX_COUPLINGS", "SPECS", "CouplingSpec", "CouplingType", "check_keywords",
+           "cut_gap", "resolve", "si_ratio"]

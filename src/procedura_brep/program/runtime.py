@@ -447,6 +447,7 @@ def _place(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]]) -> No
     b.world[names[0]] = np.eye(4)
     carriers = {n: _carrier(s) for n, s in b.solids.items()}
     jointed = {names[0]}
+    cuts = {str(c.named.get("closes")) for c in reg.couplings if c.type == "linkage"}
     for m in mates:
         decl, mtype, opts = m["decl"], m["type"], m["options"]
         home = pl.home_value(mtype.name, opts) if mtype.kind == "kinematic" else None
@@ -472,9 +473,18 @@ def _place(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]]) -> No
             m["primary"] = False
             dist, ang = pl.residual(b.world[decl.child], solved)
             m["residual"] = (dist, ang)
-            if mtype.kind == "kinematic":
+            if mtype.kind == "kinematic" and decl.name in cuts:  # a linkage's cut joint
+                gap = couplings.cut_gap(b.world[decl.parent], m["fp"], b.world[decl.child], m["fc"])
+                if gap > TOL.residual_mm:
+                    b.fail("loop", f"mate {decl.name}: the loop it closes does not meet at the compiled "
+                                   f"pose: its two anchors are {gap:.4g} mm apart (limit "
+                                   f"{TOL.residual_mm:g} mm); set the loop's home angles or lengths so "
+                                   f"its frames meet", mate=decl.name, line=decl.line, value=gap,
+                           limit=TOL.residual_mm)
+            elif mtype.kind == "kinematic":
                 b.fail("loop", f"mate {decl.name}: {decl.child!r} is already placed; a kinematic mate "
-                               f"may not close a loop", mate=decl.name, line=decl.line)
+                               f"may not close a loop (unless a couple(..., \"linkage\", closes="
+                               f"\"{decl.name}\") names it as the loop's cut)", mate=decl.name, line=decl.line)
             elif dist > TOL.residual_mm or ang > TOL.residual_rad:
                 b.fail("mate-residual", f"mate {decl.name}: {decl.child!r} is placed by an earlier mate; "
                                         f"this one is off by {dist:.4g} mm and {math.degrees(ang):.4g} deg",

@@ -199,7 +199,8 @@ def check_b5(art: Articulation, masses: dict[str, MassProps], urdf_dir: Path) ->
 def _mimic_problems(art: Articulation, u, m) -> list[str]:
     """Every coupled joint carries its ``<mimic>`` (the chain's head, the ratio product) in the
     strict URDF, and MuJoCo's import of the mujoco profile turned each into an equality."""
-    want = {c.driven: art.root_driver(c.driven) for c in art.couplings}
+    ratios = [c for c in art.couplings if c.type != "linkage"]  # a loop's joints mimic nothing
+    want = {c.driven: art.root_driver(c.driven) for c in ratios}
     got = {n: (j.mimic.joint, float(j.mimic.multiplier), float(j.mimic.offset or 0.0))
            for n, j in u.joint_map.items() if j.mimic is not None}
     out = []
@@ -208,9 +209,9 @@ def _mimic_problems(art: Articulation, u, m) -> list[str]:
         if w is None or g is None or g[0] != w[0] or not np.isclose(g[1], w[1], rtol=1e-9, atol=0) \
                 or not np.isclose(g[2], w[2], rtol=0, atol=1e-12):
             out.append(f"URDF joint {name!r}: mimic {g} where the couplings say {w}")
-    if int(m.neq) != len(art.couplings):
+    if int(m.neq) != len(ratios):
         out.append(f"the mujoco-profile URDF imports with {int(m.neq)} equality constraints; the "
-                   f"model has {len(art.couplings)} couplings")
+                   f"model has {len(ratios)} ratio couplings")
     return out
 
 

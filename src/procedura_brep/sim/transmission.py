@@ -15,6 +15,11 @@ against the driver's over the run; it passes when it is within ``TOL.coupling_ra
 the declared ratio (:class:`~procedura_brep.articulation.tree.Coupling`, from the program's
 params), with the same sign, the driver moved at least :data:`MIN_TRAVEL` of what was
 commanded, and MuJoCo raised no warning.
+
+A linkage: its driver is ramped over :data:`RANGE_FRACTION` of its own limits (+-:data:`FREE_TURN`
+without), and the cut joint's two anchors (the connect's point on each body) stay within
+``TOL.coupling_cut_mm`` of each other; the driver must travel :data:`MIN_TRAVEL` of the command
+(a loop that locks stops it), and the driven joint must move.
 """
 
 from __future__ import annotations
@@ -48,6 +53,8 @@ def _heads(art: Articulation) -> dict[str, list[Coupling]]:
     """Chain head -> the couplings below it, in the articulation's order."""
     out: dict[str, list[Coupling]] = {}
     for c in art.couplings:
+        if c.type == "linkage":
+            continue
         out.setdefault(art.root_driver(c.driver)[0], []).append(c)
     return out
 
@@ -100,6 +107,85 @@ def _drive(m: MjModel, head: Joint, lo: float, hi: float, names: list[str]
                 traj.append(d.qpos.copy())
             k += 1
     return {n: np.asarray(v) for n, v in rows.items()}, warnings_of(d), traj
+
+
+def _cut_gaps(m: MjModel, cut: str) -> tuple[Any, Any]:
+    """``gap(d) -> m``: the distance between the connect's anchor on each of its bodies (the
+    body2 anchor taken at qpos0, where the loop meets)."""
+    import mujoco
+    eid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_EQUALITY, cut)
+    if eid < 0:
+        raise KeyError(f"model.xml has no equality {cut!r} closing the loop")
+    b1, b2 = int(m.eq_obj1id[eid]), int(m.eq_obj2id[eid])
+    a1 = np.array(m.eq_data[eid, :3], dtype=float)
+    d0 = mujoco.MjData(m)
+    mujoco.mj_kinematics(m, d0)
+    p = d0.xpos[b1] + d0.xmat[b1].reshape(3, 3) @ a1
+    a2 = d0.xmat[b2].reshape(3, 3).T @ (p - d0.xpos[b2])
+
+    def gap(d: Any) -> float:
+        w1 = d.xpos[b1] + d.xmat[b1].reshape(3, 3) @ a1
+        w2 = d.xpos[b2] + d.xmat[b2].reshape(3, 3) @ a2
+        return float(np.linalg.norm(w1 - w2))
+    return gap, eid
+
+
+def _linkage(m: MjModel, art: Articulation, name: str, couplings: list[Coupling]
+             ) -> tuple[dict[str, Any], list[str], list[np.ndarray]]:
+    """One linkage's row, its problems and its states for frames."""
+    import mujoco
+    src = couplings[0].source
+    head = art.joint(src.driver)
+    lo, hi = (head.lower, head.upper) if head.lower is not None and head.upper is not None \
+        else (-FREE_TURN, FREE_TURN)
+    mid, half = (lo + hi) / 2, (hi - lo) / 2 * RANGE_FRACTION
+    lo, hi = mid - half, mid + half
+    if head.drive == "velocity":
+        a = min(-lo, hi, 0.5 * head.velocity * LEG_S)
+        lo, hi = -a, a
+    gap, _ = _cut_gaps(m, src.closes)
+    names = sorted({src.driver, src.driven})
+    act = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, head.name)
+    if act < 0:
+        raise KeyError(f"joint {head.name!r} has no actuator in model.xml")
+    qadr = {n: int(m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n)]) for n in names}
+    d = mujoco.MjData(m)
+    dt = float(m.opt.timestep)
+    q: dict[str, list[float]] = {n: [] for n in names}
+    worst_gap, traj, k = 0.0, [], 0
+    for start, end, dur in ((0.0, lo, LEG_S), (lo, hi, 2 * LEG_S)):
+        n = max(1, int(dur / dt))
+        for s in range(n):
+            d.ctrl[act] = (end - start) / dur if head.drive == "velocity" else start + (end - start) * (s + 1) / n
+            mujoco.mj_step(m, d)
+            worst_gap = max(worst_gap, gap(d))
+            for nm, adr in qadr.items():
+                q[nm].append(float(d.qpos[adr]))
+            if k % FRAME_EVERY == 0:
+                traj.append(d.qpos.copy())
+            k += 1
+    warns = warnings_of(d)
+    x, y = np.asarray(q[src.driver]), np.asarray(q[src.driven])
+    travel, commanded = float(x.max() - x.min()), hi - lo
+    driven_travel = float(y.max() - y.min())
+    dj = art.joint(src.driven)
+    row = {"type": "linkage", "driver": src.driver, "driven": src.driven, "cut": src.closes,
+           "max_cut_gap_mm": worst_gap * 1000.0, "driver_travel": travel,
+           "commanded_travel": commanded, "driven_travel": driven_travel,
+           "driver_travel_label": head.kind.label(travel),
+           "driven_travel_label": dj.kind.label(driven_travel), "warnings": warns}
+    bad = []
+    if travel < MIN_TRAVEL * commanded:
+        bad.append(f"its driver {src.driver!r} moved {head.kind.label(travel)} of "
+                   f"{head.kind.label(commanded)} commanded (does the loop lock?)")
+    if worst_gap * 1000.0 > TOL.coupling_cut_mm:
+        bad.append(f"the cut joint {src.closes!r} opened by {worst_gap * 1000.0:.3g} mm "
+                   f"(limit {TOL.coupling_cut_mm:g} mm)")
+    if driven_travel <= 0.0:
+        bad.append(f"the driven joint {src.driven!r} did not move")
+    if warns:
+        bad.append(f"MuJoCo warnings {warns}")
+    return row, [f"linkage {name}: " + "; ".join(bad)] if bad else [], traj
 
 
 def _slope(x: np.ndarray, y: np.ndarray) -> float:
@@ -166,14 +252,30 @@ def check_b8(m: MjModel, art: Articulation) -> tuple[CheckResult, list[np.ndarra
                 if bad:
                     problems.append(f"coupling {c.name} ({c.type}): " + "; ".join(bad))
                     worst_traj = worst_traj or traj
+        linkages: dict[str, list[Coupling]] = {}
+        for c in art.couplings:
+            if c.type == "linkage":
+                linkages.setdefault(c.source.name, []).append(c)
+        for name, group in linkages.items():
+            row, bad, traj = _linkage(m, art, name, group)
+            rows[name] = row
+            problems.extend(bad)
+            if bad:
+                worst_traj = worst_traj or traj
     finally:
         m.opt.gravity[:] = gravity
         m.opt.disableflags = flags
-    measured_all = {"max_ratio_rel_err": worst, "couplings": rows}
-    message = "; ".join(problems) or (f"{len(rows)} couplings follow their drivers within "
-                                      f"{100 * worst:.3g}% of the declared ratios")
+    gaps = [r["max_cut_gap_mm"] for r in rows.values() if r["type"] == "linkage"]
+    measured_all = {"max_ratio_rel_err": worst, "max_cut_gap_mm": max(gaps, default=0.0),
+                    "couplings": rows}
+    n_ratio = len(rows) - len(gaps)
+    parts = ([f"{n_ratio} couplings follow their drivers within {100 * worst:.3g}% of the declared "
+              f"ratios"] if n_ratio else []) + \
+        ([f"{len(gaps)} loops stay closed within {max(gaps):.3g} mm"] if gaps else [])
+    message = "; ".join(problems) or "; ".join(parts)
     return CheckResult("B8", "transmission", not problems, measured_all,
-                       {"max_ratio_rel_err": TOL.coupling_ratio_rel}, message), worst_traj
+                       {"max_ratio_rel_err": TOL.coupling_ratio_rel,
+                        "max_cut_gap_mm": TOL.coupling_cut_mm}, message), worst_traj
 
 
 __all__ = ["check_b8", "head_range"]
