@@ -369,8 +369,9 @@
     camera.updateProjectionMatrix();
     render();
   }
+  let started = false;  // no drawing while the page is set up: the first frame is the fitted one
   function render() {
-    if (renderer) renderer.render(scene, camera);
+    if (renderer && started) renderer.render(scene, camera);
   }
   if (renderer) {
     controls = new T.OrbitControls(camera, renderer.domElement);
@@ -392,6 +393,7 @@
   $('fit').addEventListener('click', fit);
   update();
   resize();
+  started = true;
   fit();
   requestAnimationFrame(() => {
     viewer.firstFrameMs = performance.now();
