@@ -18,6 +18,7 @@ z4 = 45             # teeth, output wheel (stage 2: 3:1)
 gear_w = 14.0       # mm, face width of every gear
 shaft_d = 12.0      # mm, shaft diameter
 journal_d = 10.0    # mm, shaft journal in the floor bore: nominal of the shaft revolutes
+journal_l = 6.0     # mm, journal length: a blind bore, the floor stays closed under it
 low_z = 8.0         # mm, stage 1 gears start this far above the floor
 high_z = 28.0       # mm, stage 2 gears start this far above the floor
 inner_h = 50.0      # mm, housing cavity height (floor top to cover)
@@ -174,9 +175,11 @@ frames("drain_plug", foot=Location((0, 0, 0)))
 # === assembly ===
 mate("cover.seat", "base.seat", "seat_face", nominal="seat_d", fit="location")
 mate("input_shaft.seat", "base.shaft_in", "revolute", nominal="journal_d", fit="clearance",
-     effort=5, velocity=20)
-mate("countershaft.seat", "base.shaft_mid", "revolute", nominal="journal_d", fit="clearance")
-mate("output_shaft.seat", "base.shaft_out", "revolute", nominal="journal_d", fit="clearance")
+     depth=journal_l, effort=5, velocity=20)
+mate("countershaft.seat", "base.shaft_mid", "revolute", nominal="journal_d", fit="clearance",
+     depth=journal_l)
+mate("output_shaft.seat", "base.shaft_out", "revolute", nominal="journal_d", fit="clearance",
+     depth=journal_l)
 mate("bolt_1.foot", "cover.bolt_1", "peg_socket", nominal="bolt_d", fit="clearance", depth=cover_t - 2)
 mate("bolt_2.foot", "cover.bolt_2", "peg_socket", nominal="bolt_d", fit="clearance", depth=cover_t - 2)
 mate("bolt_3.foot", "cover.bolt_3", "peg_socket", nominal="bolt_d", fit="clearance", depth=cover_t - 2)

@@ -76,3 +76,15 @@ def test_one_input_revolution_turns_the_output_by_the_product_of_the_stages(buil
     expected = (z1 / z2) * (z3 / z4)  # two external meshes: the output turns the input's way
     assert q_out / q_in == pytest.approx(expected, rel=0.01)
     assert not [w for w in d.warning if w.number], "MuJoCo warnings"
+
+
+def test_the_battery_passes_b8_included(built):
+    done = subprocess.run([sys.executable, "-m", "procedura_brep", "simulate", str(built), "--json"],
+                          capture_output=True, text=True, timeout=600)
+    report = json.loads(done.stdout)
+    failed = {c["id"]: c.get("message") for c in report["checks"] if not c["passed"]}
+    assert done.returncode == 0 and report["passed"], failed
+    b8 = next(c for c in report["checks"] if c["id"] == "B8")
+    assert not b8.get("skipped") and b8["measured"]["max_ratio_rel_err"] < 0.01
+    assert set(b8["measured"]["couplings"]) == {"countershaft_seat__input_shaft_seat",
+                                                "output_shaft_seat__countershaft_seat"}
