@@ -266,7 +266,7 @@ def simulate(
                                                                     "failure frames go.")] = None,
     quiet: QuietOption = False,
 ) -> None:
-    """Run the MuJoCo battery B0-B7; exit 1 when any check fails, 2 when TARGET is unusable."""
+    """Run the MuJoCo battery B0-B8; exit 1 when any check fails, 2 when TARGET is unusable."""
 
     from .errors import InputError
     from .run import commands

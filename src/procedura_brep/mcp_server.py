@@ -261,8 +261,8 @@ def build_server() -> Any:
         files = commands.export(_compile(program, name), Path(out_dir), formats=fmts, step_schema="AP214")
         return _result(f"wrote {len(files)} file(s) to {out_dir}", {"ok": True, "files": sorted(files)})
 
-    @server.tool(description="Run the MuJoCo battery B0-B7 on a program (model fidelity, settle, "
-                             "joint sweeps, rest contact, wheels, URDF and USD round trips, smoke).")
+    @server.tool(description="Run the MuJoCo battery B0-B8 on a program (model fidelity, settle, "
+                             "joint sweeps, rest contact, wheels, URDF and USD round trips, smoke, transmission).")
     @_guard
     def simulate(program: str, out_dir: str | None = None, name: str = "model") -> CallToolResult:
         import tempfile

@@ -49,13 +49,13 @@ def test_one_edit_changes_the_ratio(worker):
 def test_opposed_axes_keep_the_sense_of_an_external_mesh(worker):
     """The wheel's joint axis turned to -Z (same wheel, same place): its positive sense is the
     pinion's negative one, so the external mesh now reads +12/36."""
-    src = (SRC.replace("w_axis=Location((gear_m * (z_pinion + z_wheel) / 4, 0, base_t + 1))",
-                       "w_axis=Location((gear_m * (z_pinion + z_wheel) / 4, 0, base_t + 1 + gear_w), (180, 0, 0))")
+    src = (SRC.replace("w_axis=Location((-24, gear_m * (z_pinion + z_wheel) / 2, base_t + 1))",
+                       "w_axis=Location((-24, gear_m * (z_pinion + z_wheel) / 2, base_t + 1 + gear_w), (180, 0, 0))")
            .replace('frames("wheel", hub=Location((0, 0, 0)))',
                     'frames("wheel", hub=Location((0, 0, gear_w), (180, 0, 0)))'))
     m = _compile(worker, src)
     assert not _errors(m)
-    assert m.part("wheel").placement[:3, 3] == pytest.approx([24, 0, 11])
+    assert m.part("wheel").placement[:3, 3] == pytest.approx([-24, 48, 11])
     assert m.part("wheel").placement[:3, 2] == pytest.approx([0, 0, 1])  # the wheel did not move
     assert {c.name: c.ratio for c in m.couplings}["wheel_hub__pinion_hub"] == pytest.approx(12 / 36)
 
@@ -69,7 +69,7 @@ def test_internal_mesh_and_left_hand_keep_and_flip_the_sense(worker):
 
 
 def test_a_rack_on_the_other_side_reverses_and_the_rack_may_drive(worker):
-    src = (SRC.replace("-gear_m * z_pinion / 2, base_t + 15", "gear_m * z_pinion / 2, base_t + 15")
+    src = (SRC.replace("-gear_m * z_pinion / 2, base_t)", "gear_m * z_pinion / 2, base_t)")
            .replace("align=(Align.CENTER, Align.MAX, Align.MIN)", "align=(Align.CENTER, Align.MIN, Align.MIN)")
            .replace(RACK, 'couple("pinion_hub", "rack_slide", "rack_pinion", pinion_teeth="z_pinion", '
                           'module="gear_m")').replace(GEAR + "\n", ""))
@@ -101,7 +101,7 @@ def test_a_rack_on_the_other_side_reverses_and_the_rack_may_drive(worker):
      "driver_teeth: param z_pinion = 12.5 must be a whole number of teeth"),
     (lambda s: s + 'couple("wheel_hub", "pinion_hub", "belt", driver_diameter="screw_d", '
                    'driven_diameter="gear_w")\n',
-     "joint wheel_hub is already driven by pinion_hub (line 65); a joint has one driver"),
+     "joint wheel_hub is already driven by pinion_hub (line 66); a joint has one driver"),
     (lambda s: s + 'couple("pinion_hub", "wheel_hub", "gear", driver_teeth="z_wheel", '
                    'driven_teeth="z_pinion")\n',
      "the couplings form a cycle (wheel_hub <- pinion_hub <- wheel_hub)"),
@@ -133,3 +133,21 @@ def test_the_coupling_reaches_mates_json_and_survives_the_trust_check(worker):
     bad["couplings"][1]["ratio"] = float("inf")
     with pytest.raises(ResultError, match=r"couplings\[1\]\.ratio"):
         model_from_json(bad)
+
+
+def test_the_program_builds_with_its_couplings_in_mates_json(tmp_path):
+    """Through the CLI: the gates pass (every part touches) and the run's mates.json carries
+    the couplings with their params."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from procedura_brep.cli import app
+    prog = tmp_path / "transmission.py"
+    prog.write_text(SRC)
+    out = tmp_path / "out"
+    res = CliRunner().invoke(app, ["build", str(prog), "-o", str(out), "--formats", "step"])
+    assert res.exit_code == 0, res.output
+    rows = json.loads((out / "mates.json").read_text())["couplings"]
+    assert {r["name"]: (r["inputs"], r["mesh"]) for r in rows}["nut_slide__screw_hub"] == (
+        {"lead": "screw_lead", "hand": "right"}, ["screw", "nut"])

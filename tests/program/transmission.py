@@ -1,5 +1,6 @@
 """A base with a pinion driving a wheel (gear) and a rack (rack and pinion), and a lead screw
-driving a nut (screw): plain cylinders and boxes, the couplings' test program."""
+driving a nut (screw): plain cylinders and boxes, the couplings' test program. The rack and the
+nut slide on the base, the screw lies in the nut's bore: every part touches (the gates pass)."""
 from procedura_brep.program import *
 
 # === params ===
@@ -12,7 +13,7 @@ gear_m = 2.0  # mm, module
 z_pinion = 12  # teeth of the pinion
 z_wheel = 36  # teeth of the wheel
 gear_w = 10.0  # mm, wheel width
-pinion_w = 30.0  # mm, pinion width (the rack meshes with its upper half)
+pinion_w = 30.0  # mm, pinion width
 screw_d = 10.0  # mm, lead screw diameter
 screw_l = 160.0  # mm, lead screw length
 screw_lead = 4.0  # mm per turn
@@ -40,16 +41,16 @@ def rack():
 def screw():
     return Cylinder(screw_d / 2, screw_l, align=(Align.CENTER, Align.CENTER, Align.MIN))
 
-@part(detail="major", material="steel", description="nut block riding on the screw")
+@part(detail="major", material="steel", description="nut block on the base, the screw through its bore")
 def nut():
-    return Box(20, 20, 20) - Cylinder(screw_d / 2 + 1, 20)
+    return Box(20, 20, 20) - Cylinder(screw_d / 2, 20)
 
 # === frames ===
-frames("base", p_axis=Location((-gear_m * (z_pinion + z_wheel) / 4, 0, base_t + 1)),
-       w_axis=Location((gear_m * (z_pinion + z_wheel) / 4, 0, base_t + 1)),
-       rail=Location((-gear_m * (z_pinion + z_wheel) / 4, -gear_m * z_pinion / 2, base_t + 15), (0, 90, 0)),
-       s_axis=Location((-screw_l / 2, 70, base_t + 20), (0, 90, 0)),
-       n_rail=Location((0, 70, base_t + 20), (0, 90, 0)))
+frames("base", p_axis=Location((-24, 0, base_t + 1)),
+       w_axis=Location((-24, gear_m * (z_pinion + z_wheel) / 2, base_t + 1)),
+       rail=Location((-24, -gear_m * z_pinion / 2, base_t), (0, 90, 0)),
+       s_axis=Location((-screw_l / 2, -70, base_t + 10), (0, 90, 0)),
+       n_rail=Location((0, -70, base_t + 10), (0, 90, 0)))
 frames("pinion", hub=Location((0, 0, 0)))
 frames("wheel", hub=Location((0, 0, 0)))
 frames("rack", slide=Location((0, 0, 0), (0, 90, 0)))

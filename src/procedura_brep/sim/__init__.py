@@ -1,4 +1,4 @@
-"""The MuJoCo battery: ``run_battery(bundle_dir | model) -> BatteryReport`` (checks B0-B7)."""
+"""The MuJoCo battery: ``run_battery(bundle_dir | model) -> BatteryReport`` (checks B0-B8)."""
 
 from .report import BatteryReport, CheckResult
 

@@ -1,4 +1,4 @@
-"""The MuJoCo battery B0-B7 (docs/battery.md) over one exported bundle.
+"""The MuJoCo battery B0-B8 (docs/battery.md) over one exported bundle.
 
 ``run_battery(source)`` takes a :class:`CompiledModel` (the bundle is written first, to
 ``out_dir`` or a temporary directory; with ``exported=True`` the model's bundle already in
