@@ -546,10 +546,10 @@ def _couple(model: CompiledModel, art: Articulation) -> None:
         if driven.kind.compound or driven.kind.ball or driver.kind.compound or driver.kind.ball:
             raise ArticulationError(f"coupling {c.name}: only revolute and prismatic joints couple")
         sign = (-1.0 if driven.flipped else 1.0) * (-1.0 if driver.flipped else 1.0)
-        scale = si_ratio(c, driven.mate.type, driver.mate.type) / c.ratio if c.ratio else 0.0
+        offset = c.offset * (driven.kind.to_si(1.0) if driven.kind.slides else 1.0)  # mm -> m; rad stays
         link_of = art.part_link
         mesh = (link_of.get(c.mesh[0], ""), link_of.get(c.mesh[1], ""))
         cp = Coupling(c.name, c.type, c.driven, c.driver, sign * si_ratio(c, driven.mate.type, driver.mate.type),
-                      sign * c.offset * scale, mesh, c)
+                      offset, mesh, c)  # a driven joint is never a wheel: never flipped
         art.couplings.append(cp)
         driven.coupling = cp
