@@ -151,3 +151,12 @@ def test_the_program_builds_with_its_couplings_in_mates_json(tmp_path):
     rows = json.loads((out / "mates.json").read_text())["couplings"]
     assert {r["name"]: (r["inputs"], r["mesh"]) for r in rows}["nut_slide__screw_hub"] == (
         {"lead": "screw_lead", "hand": "right"}, ["screw", "nut"])
+
+
+def test_a_failed_meshing_part_is_a_finding_not_a_broken_result(worker):
+    """The wheel's solid fails: its mates and coupling still come back (naming it), and the
+    parent reads the child's result (a coupling may name a part the result lacks)."""
+    m = _compile(worker, SRC.replace("gear_m * z_wheel / 2 - 1, gear_w", "0, gear_w"))
+    assert any(f.code == "part-exception" and f.part == "wheel" for f in m.findings)
+    assert "wheel" not in [p.name for p in m.parts]
+    assert {c.name: c.mesh for c in m.couplings}["wheel_hub__pinion_hub"] == ("wheel", "pinion")

@@ -279,8 +279,7 @@ def _mate(m: Any, i: int, parts: dict[str, CompiledPart], rigid: _Rigid) -> Comp
         line=None if m.get("line") is None else _int(m["line"], f"{where}.line"))
 
 
-def _coupling(c: Any, i: int, mates: dict[str, CompiledMate], parts: dict[str, CompiledPart]
-              ) -> CompiledCoupling:
+def _coupling(c: Any, i: int, mates: dict[str, CompiledMate]) -> CompiledCoupling:
     from .couplings import SPECS
     where = f"couplings[{i}]"
     c = _dict(c, where, 16)
@@ -302,8 +301,11 @@ def _coupling(c: Any, i: int, mates: dict[str, CompiledMate], parts: dict[str, C
     values = {_name(k, f"{where}.values key", IDENT): _num(v, f"{where}.values[{k}]", lo=0.0)
               for k, v in _dict(c.get("values", {}), f"{where}.values", 8).items()}
     mesh = _list(c.get("mesh", ["", ""]), f"{where}.mesh", 2)
-    if len(mesh) != 2 or any(x != "" and x not in parts for x in mesh):
+    if len(mesh) != 2:
         raise _bad(f"{where}.mesh", f"= {mesh!r:.80} is not a pair of part names")
+    for x in mesh:  # a part that failed is not in the result (its mates still are)
+        if x != "":
+            _name(x, f"{where}.mesh")
     return CompiledCoupling(name=name, type=ctype, driven=driven, driver=driver,
                             ratio=_num(c.get("ratio"), f"{where}.ratio"),
                             offset=_num(c.get("offset", 0.0), f"{where}.offset"),
@@ -352,7 +354,7 @@ def model_from_json(d: Any, *, name: str | None = None, cache_dir: str | None = 
     model_name = name if name is not None else _name(d.get("name"), "name", IDENT)
     by_name = {m.name: m for m in mates}
     from .couplings import MAX_COUPLINGS
-    couplings = [_coupling(c, i, by_name, parts)
+    couplings = [_coupling(c, i, by_name)
                  for i, c in enumerate(_list(d.get("couplings", []), "couplings", MAX_COUPLINGS))]
     return CompiledModel(name=model_name, params=params, parts=list(parts.values()), mates=mates,
                          findings=findings, timings=timings, materials=library, couplings=couplings)
