@@ -324,6 +324,24 @@ def test_view_refuses_a_directory_without_a_viewer(tmp_path):
     assert res.exit_code == 2 and "does not exist" in res.output
 
 
+def test_view_names_a_port_in_use(tmp_path):
+    import socket
+
+    from typer.testing import CliRunner
+
+    from procedura_brep.cli import app
+    (tmp_path / "viewer").mkdir()
+    (tmp_path / "viewer.html").write_text("<!doctype html>")
+    (tmp_path / "viewer" / "data.js").write_text("window.PROCEDURA_VIEWER = {};")
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen(1)
+        port = busy.getsockname()[1]
+        res = CliRunner().invoke(app, ["view", str(tmp_path), "--port", str(port)])
+    assert res.exit_code == 2
+    assert f"cannot serve {tmp_path} on 127.0.0.1:{port}: address already in use" in res.output
+
+
 @pytest.mark.slow  # a CLI process start
 def test_view_serves_the_page_on_loopback_until_ctrl_c(arm):
     _, _, folder = arm
