@@ -122,3 +122,13 @@ def test_programs_see_the_helpers_not_the_libraries():
     assert set(gearing.HELPERS) <= names
     assert not {"py_gearworks", "bd_warehouse", "pgw", "gearing"} & names
     assert api.spur_gear is gearing.spur_gear
+
+
+def test_a_bad_size_in_a_program_is_a_finding_naming_the_part_and_the_helper(worker):
+    from pathlib import Path
+    src = (Path(__file__).parents[1] / "gates" / "drive.py").read_text()
+    src = src.replace("z_planet = 12       # teeth of the planet", "z_planet = 5        # teeth of the planet")
+    model = worker.compile(src)
+    errors = [f for f in model.findings if f.severity == "error"]
+    assert [f.part for f in errors] == ["planet"]
+    assert "spur_gear: teeth must be >= 6, got 5" in errors[0].message and errors[0].line
