@@ -97,10 +97,13 @@ def test_pulleys():
 @pytest.mark.parametrize("call, words", [
     (lambda: gearing.spur_gear(0, 20, 10), "spur_gear: module must be > 0, got 0"),
     (lambda: gearing.spur_gear(-1.5, 20, 10), "module must be > 0"),
-    (lambda: gearing.spur_gear(1.5, 5, 10), "spur_gear: teeth must be >= 6, got 5"),
+    (lambda: gearing.spur_gear(1.5, 5, 10), "spur_gear: teeth must be in [6, 400], got 5"),
+    (lambda: gearing.spur_gear(1.5, 10**6, 10), "spur_gear: teeth must be in [6, 400], got 1000000"),
+    (lambda: gearing.rack(1.0, 10**5, 8, 7), "rack: length 100000 mm holds 31831 teeth"),
+    (lambda: gearing.lead_screw(12, 1, 10**4), "lead_screw: length 10000 mm must be more than two"),
     (lambda: gearing.spur_gear(1.5, 20.5, 10), "teeth must be a whole number"),
     (lambda: gearing.spur_gear(1.5, 20, 10, bore=40), "bore 40 mm leaves less than one module"),
-    (lambda: gearing.ring_gear(1.0, 4, 10), "ring_gear: teeth must be >= 6"),
+    (lambda: gearing.ring_gear(1.0, 4, 10), "ring_gear: teeth must be in [6, 400]"),
     (lambda: gearing.rack(2.0, 5, 8, 7), "rack: length 5 mm holds fewer than 2 teeth"),
     (lambda: gearing.rack(2.0, 60, 8, 2), "rack: height 2 mm must exceed"),
     (lambda: gearing.lead_screw(12, 5, 60), "lead_screw: lead 5 mm is more than a third"),
@@ -131,4 +134,4 @@ def test_a_bad_size_in_a_program_is_a_finding_naming_the_part_and_the_helper(wor
     model = worker.compile(src)
     errors = [f for f in model.findings if f.severity == "error"]
     assert [f.part for f in errors] == ["planet"]
-    assert "spur_gear: teeth must be >= 6, got 5" in errors[0].message and errors[0].line
+    assert "spur_gear: teeth must be in [6, 400], got 5" in errors[0].message and errors[0].line

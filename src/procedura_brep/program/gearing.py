@@ -35,6 +35,9 @@ class GearingError(ProceduraError, ValueError):
 
 #: Fewest teeth a gear helper accepts (below it an involute pinion undercuts badly).
 MIN_TEETH: int = 6
+#: Most teeth (and thread turns) a helper builds: beyond it the solid's faces run into the
+#: sandbox's size caps after minutes of work, so the helper refuses at once.
+MAX_TEETH: int = 400
 #: Default tooth thinning on the pitch circle, as a fraction of the module (per gear): a pair
 #: of gears with the default has a circular backlash of 0.08 m.
 BACKLASH_PER_MODULE: float = 0.04
@@ -59,8 +62,8 @@ def _teeth(fn: str, value: Any, name: str = "teeth") -> int:
         value = int(value)
     if isinstance(value, bool) or not isinstance(value, int):
         raise GearingError(f"{fn}: {name} must be a whole number, got {value!r:.40}")
-    if value < MIN_TEETH:
-        raise GearingError(f"{fn}: {name} must be >= {MIN_TEETH}, got {value}")
+    if not MIN_TEETH <= value <= MAX_TEETH:
+        raise GearingError(f"{fn}: {name} must be in [{MIN_TEETH}, {MAX_TEETH}], got {value}")
     return value
 
 
@@ -89,7 +92,7 @@ def spur_gear(module: float, teeth: int, width: float, *, bore: float = 0.0,
 
     Args:
         module: mm (> 0); the pitch diameter is ``module * teeth``.
-        teeth: whole number >= 6.
+        teeth: whole number, 6 .. 400.
         width: face width, mm (> 0).
         bore: diameter of a through bore, mm (0: none); must leave a rim of one module
             under the tooth roots.
@@ -180,6 +183,9 @@ def rack(module: float, length: float, width: float, height: float, *,
     m = _number(fn, "module", module)
     count = _number(fn, "length", length) / (math.pi * m)
     n = 2 * math.floor(count / 2) + 1  # the odd count nearest: a tooth is centred on x = 0
+    if count > MAX_TEETH:
+        raise GearingError(f"rack: length {length:g} mm holds {count:.0f} teeth of pitch "
+                           f"{math.pi * m:.3g} mm; at most {MAX_TEETH}")
     if count < 2:
         raise GearingError(f"rack: length {length:g} mm holds fewer than 2 teeth of pitch "
                          f"{math.pi * m:.3g} mm (module {m:g}); at least {2 * math.pi * m:.3g}")
@@ -260,8 +266,9 @@ def lead_screw(diameter: float, lead: float, length: float, *,
     if p > d / 3:
         raise GearingError(f"lead_screw: lead {p:g} mm is more than a third of the diameter "
                            f"{d:g} mm; at most {d / 3:.3g}")
-    if n <= 2 * p:
-        raise GearingError(f"lead_screw: length {n:g} mm must exceed two leads ({2 * p:g} mm)")
+    if not 2 * p < n <= MAX_TEETH * p:
+        raise GearingError(f"lead_screw: length {n:g} mm must be more than two leads and at most "
+                           f"{MAX_TEETH} ({2 * p:g} .. {MAX_TEETH * p:g} mm at lead {p:g})")
     from build123d import Align, Cylinder
 
     depth = _thread_profile(p)[0]
@@ -292,8 +299,9 @@ def lead_nut(diameter: float, lead: float, length: float, *, outer: float | None
     if p > d / 3:
         raise GearingError(f"lead_nut: lead {p:g} mm is more than a third of the diameter "
                            f"{d:g} mm; at most {d / 3:.3g}")
-    if n <= 2 * p:
-        raise GearingError(f"lead_nut: length {n:g} mm must exceed two leads ({2 * p:g} mm)")
+    if not 2 * p < n <= MAX_TEETH * p:
+        raise GearingError(f"lead_nut: length {n:g} mm must be more than two leads and at most "
+                           f"{MAX_TEETH} ({2 * p:g} .. {MAX_TEETH * p:g} mm at lead {p:g})")
     if o <= d + 2 * c + p:
         raise GearingError(f"lead_nut: outer {o:g} mm leaves no wall around the thread; more "
                            f"than {d + 2 * c + p:g}")
