@@ -12,6 +12,7 @@ import pytest
 from procedura_brep.findings import failed
 from procedura_brep.run import steps
 from procedura_brep.run.build import build, verify_and_export
+from procedura_brep.sim.battery import ALL_CHECKS
 
 LAMP = Path(__file__).parents[1] / "program" / "lamp.py"
 LIFTED = LAMP.read_text().replace("foot=Location((0, 0, 0))", "foot=Location((0, 0, -0.5))")
@@ -91,7 +92,7 @@ def test_build_simulates_without_reading_program_py(tmp_path, worker, monkeypatc
     monkeypatch.setattr(steps, "export", export_then_delete)
     res = build(LAMP, tmp_path / "run", formats=("urdf", "usd", "mjcf"), simulate=True)
     assert res.ok, res.reason
-    assert res.report["battery"]["passed"] is True and len(res.report["battery"]["checks"]) == 8
+    assert res.report["battery"]["passed"] is True and [c["id"] for c in res.report["battery"]["checks"]] == list(ALL_CHECKS)
 
 
 def test_battery_findings_name_each_failed_check():
