@@ -46,7 +46,7 @@ def test_a_misspelt_declared_material_fails_check_and_build_alike(tmp_path):
     checked, built, report = _check_and_build(tmp_path, _with_decl("lamp_rd"))
     assert checked.exit_code == built.exit_code == 2, (checked.output, built.output)
     for text in (checked.output, built.output):
-        assert "part arm: unknown material 'lamp_rd'; use one of: steel" in text
+        assert "part arm: unknown material 'lamp_rd' (did you mean 'lamp_red'?); use one of: steel" in text
         assert "lamp_red (or declare it with material(...))" in text
     assert "internal error" not in built.output
     f = report["findings"][0]

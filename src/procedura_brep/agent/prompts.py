@@ -51,12 +51,16 @@ def reference() -> str:
 
 #: What the coupling gate checks, as the model's requests state it (docs/gates.md has the rest).
 COUPLING_GATE = (
-    "The coupling gate checks every couple(...): a gear pair's axes are parallel and their "
-    "distance is (z1 + z2) * m / 2 (external) or (z2 - z1) * m / 2 (internal) within the fit's "
-    "backlash; a rack's pitch line touches the pinion's pitch circle; a screw and its nut are "
-    "coaxial; meshing teeth do not interfere at rest, nor over one tooth pitch of the coupled "
-    "motion. Findings name the pair and the numbers. So place gears by their pitch radii (m z / 2) "
-    "from params, and make the tooth counts and module the params couple(...) names.")
+    "The coupling gate checks every couple(...) against the solids: it counts the teeth of the "
+    "meshing parts from their geometry and compares them with the params couple(...) names (a "
+    "ratio typed against the teeth fails), reads the module from the tip circle, and requires a "
+    "gear pair's axis distance of (z1 + z2) * m / 2 (external) or (z2 - z1) * m / 2 (ring) within "
+    "{centre:g} mm, a pinion's axis at m z / 2 from the rack's pitch line (the rack part's origin), "
+    "a nut's slide axis on the screw's axis; then it sweeps the meshing pair over one tooth pitch "
+    "and fails any teeth that interfere. So build gears with spur_gear / ring_gear / rack from the "
+    "same params and place them by their pitch radii. Phase: a spur gear has a tooth on its +X, "
+    "a ring gear a tooth space, a rack a tooth at x = 0; two gears facing each other along X mesh "
+    "when the second's tooth count is odd with phase=0, and with phase=0.5 when it is even.")
 
 
 def gearing_reference() -> str:
@@ -69,7 +73,8 @@ def gearing_reference() -> str:
         fn = getattr(gearing, name)
         doc = inspect.cleandoc(fn.__doc__ or "").split("\n\n")[0].replace("\n", " ")
         rows.append(f"- {name}{inspect.signature(fn)}: {doc}")
-    return "\n".join(rows) + "\n\n" + COUPLING_GATE
+    from ..config import TOL
+    return "\n".join(rows) + "\n\n" + COUPLING_GATE.format(centre=TOL.coupling_centre_mm)
 
 
 def option_line(name: str, opt: Any) -> str:

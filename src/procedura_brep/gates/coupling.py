@@ -387,7 +387,9 @@ class _Check:
     # -- rack and pinion -----------------------------------------------------------------------
     def _rack_pinion(self, drv: CompiledMate, dvn: CompiledMate) -> None:
         c = self.c
-        rev, pri = (drv, dvn) if drv.type == "revolute" else (dvn, drv)
+        from ..mates import TYPES, Motion
+        turns = drv.type in TYPES and TYPES[drv.type].motion is Motion.TURN
+        rev, pri = (drv, dvn) if turns else (dvn, drv)
         rack_name = c.inputs.get("rack") or pri.child
         try:
             rack_part = self.model.part(rack_name)

@@ -316,6 +316,18 @@ def _ancestors(part: str, model: CompiledModel) -> list[str]:
     return out
 
 
+def _turns(mate_type: str) -> bool:
+    """Whether a mate of this type turns about one axis (the vocabulary says, not its name)."""
+    from ..mates import TYPES, Motion
+    return mate_type in TYPES and TYPES[mate_type].motion is Motion.TURN
+
+
+def _slides(mate_type: str) -> bool:
+    """Whether a mate of this type slides along one axis."""
+    from ..mates import TYPES, Motion
+    return mate_type in TYPES and TYPES[mate_type].motion is Motion.SLIDE
+
+
 def _rides(revolute: CompiledMate, prismatic: CompiledMate, model: CompiledModel) -> bool:
     """The revolute joint rides on the prismatic's slider (its parent is at or below it)."""
     return prismatic.child in _ancestors(revolute.parent, model)
@@ -323,7 +335,7 @@ def _rides(revolute: CompiledMate, prismatic: CompiledMate, model: CompiledModel
 
 def _rack(d: CoupleDecl, driven: CompiledMate, driver: CompiledMate, v: dict[str, float],
           model: CompiledModel) -> tuple[float, tuple[str, str]]:
-    rev, pri = (driver, driven) if driver.type == "revolute" else (driven, driver)
+    rev, pri = (driver, driven) if _turns(driver.type) else (driven, driver)
     a, s = _axis(rev), _axis(pri)
     dot = float(a @ s)
     if abs(dot) > math.sin(math.radians(TOL.coupling_axis_deg)):
@@ -392,7 +404,7 @@ _RATIO = {"gear": _gear, "belt": _belt, "rack_pinion": _rack, "screw": _screw, "
 
 def si_ratio(c: CompiledCoupling, driven_type: str, driver_type: str) -> float:
     """The ratio in SI joint units (rad and m): mm/rad -> m/rad, rad/mm -> rad/m."""
-    scale = (1e-3 if driven_type == "prismatic" else 1.0) / (1e-3 if driver_type == "prismatic" else 1.0)
+    scale = (1e-3 if _slides(driven_type) else 1.0) / (1e-3 if _slides(driver_type) else 1.0)
     return c.ratio * scale
 
 
