@@ -35,7 +35,8 @@ from typing import Any
 from ..errors import ProceduraError
 from ..limited import Limited
 from ..program.model import CompiledModel
-from .steps import Bundle, export_formats, export_mates, gl_in_use, sheet
+from . import steps
+from .steps import Bundle, export_formats, export_mates
 
 #: The hidden folder, inside the staging folder, the overlapped export writes into (a name
 #: starting with "." is never swapped into the run directory).
@@ -90,8 +91,8 @@ class Overlapped:
                                      timings=timings)
             written.update(more)
         files = sorted(written)
-        if not gl_in_use():  # the sheet too, while the gates run (else the build's parent draws it)
-            files.append(sheet(self.model, self.folder, timings=timings).name)
+        if not steps.gl_in_use():  # the sheet too, while the gates run (else the build's parent draws it)
+            files.append(steps.sheet(self.model, self.folder, timings=timings).name)
         return {"files": files, "timings": timings}
 
     def finish(self) -> Bundle:
