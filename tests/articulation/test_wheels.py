@@ -78,6 +78,24 @@ def test_a_box_on_a_continuous_joint_at_the_floor_is_not_a_wheel(worker):
     assert articulate(model).wheels == []
 
 
+def test_a_vertical_spindle_reaching_the_floor_is_not_a_wheel(worker):
+    """A round part on a continuous joint whose axis is vertical (a turntable, a gearbox's
+    journal through its floor) touches the floor but does not roll on it (issue 27: a gearbox's
+    shafts were taken for wheels, and B4 drove them)."""
+    from procedura_brep.program import compile_source
+    src = HUB.format(where="a vertical spindle beside the base", post_h=40.0).replace(
+        'frames("base", top=Location((0, 0, 20)))',
+        'frames("base", top=Location((0, 0, 20)), edge=Location((150, 0, 0)))').replace(
+        'mate("hub.axle", "post.side"', 'mate("hub.axle", "base.edge"')
+    model = compile_source(src, name="hub", worker=worker)
+    assert model.ok, model.findings
+    low = min(p.mesh().vertices[:, 2].min() for p in model.parts)
+    assert model.part("hub").mesh().vertices[:, 2].min() - low <= TOL.wheel_ground_mm  # at the floor
+    art = articulate(model)
+    assert art.joint("hub_axle").type == "continuous" and abs(art.joint("hub_axle").axis[2]) > 0.99
+    assert art.wheels == []
+
+
 def test_continuous_spinning_hub_is_swept(worker):
     from procedura_brep.sim.sweep import SweepScene
     model = _hub(worker, 700.0)

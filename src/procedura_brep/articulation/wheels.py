@@ -3,6 +3,9 @@
 A joint is a **wheel** when all of these hold:
 
 * it is continuous (a revolute mate without limits);
+* its axis lies within :data:`MAX_TILT_DEG` of the floor plane: a wheel rolls on its rim, so a
+  vertical shaft whose end reaches the floor (a gearbox's journal, a turntable's spindle) is
+  not one;
 * its child part is round about the joint axis: the surface-covariance symmetry axis of
   :func:`procedura_brep.articulation.evidence.symmetry_axis` exists, is parallel to the joint
   axis within ``TOL.wheel_axis_deg`` and passes within ``TOL.wheel_centre_mm`` of the joint's
@@ -34,6 +37,9 @@ from ..config import TOL
 UP = np.array([0.0, 0.0, 1.0])
 #: Half a turn about X, exact (no rounding in the rotation entries).
 HALF_TURN_X = np.diag([1.0, -1.0, -1.0, 1.0])
+#: A wheel's axis is at most this far (degrees) out of the floor plane (camber and toe-in
+#: included; a vertical shaft touching the floor is not a wheel).
+MAX_TILT_DEG = 30.0
 #: A rolling direction within this cosine of perpendicular to the root's +X is "across" it.
 ACROSS_COS = 0.5
 
@@ -70,6 +76,8 @@ def find_wheels(model, links: dict[str, list[str]], joints: list, subtree, *,
     known = (evidence or {}).get("parts", {})
     out = []
     for j in continuous:
+        if abs(float(np.asarray(j.axis, float) @ UP)) > math.sin(math.radians(MAX_TILT_DEG)):
+            continue  # not rolling on the floor, whatever touches it
         child = j.mate.child
         sym = (known[child]["symmetry"] if child in known
                else symmetry_axis(model.part(child).mesh()))
