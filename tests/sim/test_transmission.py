@@ -95,3 +95,29 @@ def test_b8_keeps_a_four_bar_closed_and_fails_without_its_connect(worker):
     res, traj = check_b8(m, art)
     assert not res.passed and traj
     assert "linkage rocker_base__crank_base: " in res.message and "the cut joint 'loop_pin' opened by" in res.message
+
+
+def test_b2_sweeps_a_coupled_link_against_all_but_the_meshing_part(worker):
+    """B2 leaves out only the two parts a coupling meshes (the nut on its screw: the coupling
+    gate checks them), not their whole links: a collar fixed on the screw, in the nut's travel,
+    is still hit by the sliding nut (it was skipped with the screw's link before)."""
+    from procedura_brep.sim.sweep import SweepScene
+    src = SRC.replace('frames("screw", hub=Location((0, 0, 0)))',
+                      'frames("screw", hub=Location((0, 0, 0)), collar=Location((0, 0, 125)))')
+    src = src.replace("# === frames ===", '''@part(detail="sub", material="steel", description="collar on the screw, in the nut's path")
+def collar():
+    return Cylinder(12, 10, align=(Align.CENTER, Align.CENTER, Align.MIN)) - Cylinder(screw_d / 2, 10, align=(Align.CENTER, Align.CENTER, Align.MIN))
+
+# === frames ===
+frames("collar", seat=Location((0, 0, 0)))''')
+    src += '\nmate("collar.seat", "screw.collar", "peg_socket", nominal="screw_d", fit="location", features=False)\n'
+    model = worker.compile(src)
+    assert model.ok, [f.message for f in model.findings]
+    art = articulate(model)
+    assert art.part_link["collar"] == art.part_link["screw"]
+    scene = SweepScene(model, art)
+    joint = art.joint("nut_slide")
+    swept, _ = scene.pairs(joint)
+    assert ("nut", "screw") not in swept and ("nut", "collar") in swept
+    hit = scene.sweep(joint)
+    assert hit.depth > 1.0 and hit.pair and "collar" in hit.pair, hit

@@ -344,25 +344,27 @@ class SweepScene:
         """(pairs to sweep, pairs that interfere at rest) as (moved, fixed) part names.
 
         Moved parts are those of the joint's child subtree (rigid with each other: never
-        paired); fixed parts are every other part, the parent link's included, except the
-        links a coupling of this joint meshes (:attr:`.Coupling.mesh`: gear on gear, rack on
-        pinion, nut on screw move together; the coupling gate checks them). A pair that
+        paired); fixed parts are every other part, the parent link's included; only the two
+        PARTS a coupling of this joint meshes (``source.mesh``: gear on gear, rack on pinion,
+        nut on screw move together; the coupling gate checks them) are not paired: the rest of
+        their links is swept against them like any part (the teeth turn within their tip
+        circle and a thread within its crest, so a part that enters that envelope collides in
+        the machine too). A pair that
         already interferes at rest (thicker than ``TOL.sweep_rest_interference_mm``) is swept
         too (its finding is the increase over the rest thickness) and also listed.
         """
         moving = [p for lk in self.art.subtree(joint.child) for p in self.art.link(lk).parts]
         fixed = [p.name for p in self.model.parts if p.name not in set(moving)]
-        link = self.art.part_link
         # a coupled pair's engaging parts (teeth on teeth, a nut on its screw) move together;
         # swept one past the other they would collide: the coupling gate checks that pair
-        meshed = {frozenset(c.mesh) for c in self.art.couplings
-                  if joint.name in (c.driven, c.driver) and all(c.mesh)}
+        meshed = {frozenset(c.source.mesh) for c in self.art.couplings
+                  if joint.name in (c.driven, c.driver) and all(c.source.mesh)}
         dirs = [d / np.linalg.norm(d) for d in self._invariant_dirs(joint)]
         frame_inv = rigid_inverse(joint.frame)
         keep, at_rest = [], []
         for a in moving:
             for b in fixed:
-                if frozenset((link[a], link[b])) in meshed:
+                if frozenset((a, b)) in meshed:
                     continue
                 if not self._may_meet(joint, a, b, frame_inv):
                     continue
