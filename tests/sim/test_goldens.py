@@ -13,6 +13,7 @@ from procedura_brep.articulation import articulate
 from procedura_brep.export.bundle import write_bundle
 from procedura_brep.program.model import to_json
 from procedura_brep.sim import run_battery
+from procedura_brep.sim.battery import ALL_CHECKS
 
 from .agreement import assert_joints_agree
 
@@ -47,7 +48,7 @@ def test_golden_battery_passes(name, worker, tmp_path_factory):
     model, out = _built(name, worker, tmp_path_factory)
     report = run_battery(model, out_dir=out, frames=False)
     assert report.passed, [c.message for c in report.checks if not c.passed]
-    assert [c.id for c in report.checks] == [f"B{i}" for i in range(8)]
+    assert [c.id for c in report.checks] == list(ALL_CHECKS)
     if name == "rover":
         assert not report.check("B4").skipped and report.check("B4").measured["wheels"] >= 4
 
