@@ -695,8 +695,9 @@ def mcp(
 ) -> None:
     """Serve the tool over MCP (stdio): check, build, render, simulate ... for coding agents.
 
-    One process for the session, so the compile worker stays warm. Configure a client with the
-    command `procedura-brep mcp` (README, "MCP server")."""
+    One process for the session keeps the compile worker warm.
+
+    A client runs it as the command `procedura-brep mcp` (README, "MCP server")."""
     try:
         from .mcp_server import serve
     except ImportError as exc:  # the mcp SDK is a dependency; a broken install says so

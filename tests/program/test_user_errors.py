@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
 from typer.testing import CliRunner
 
 from procedura_brep.cli import app
@@ -67,3 +68,16 @@ def test_a_mistyped_material_gets_a_did_you_mean(tmp_path):
     res = runner.invoke(app, ["check", str(prog)])
     assert res.exit_code == 2, res.output
     assert "part base: unknown material 'cast_irn' (did you mean 'cast_iron'?); use one of:" in res.output
+
+
+@pytest.mark.parametrize("old, new, expected", [
+    ('mate("post.foot"', 'mate("post.fot"', "part 'post' publishes no frame 'fot' (did you mean 'foot'?)"),
+    ('"revolute"', '"revolut"', "unknown mate type 'revolut' (did you mean 'revolute'?)"),
+    ('fit="clearance"', 'fit="clearence"', "fit 'clearence' is not a fit class (did you mean 'clearance'?)"),
+    ('mate("arm.pivot", "post.head"', 'mate("arm.pivot", "pots.head"', "unknown part 'pots' (did you mean 'post'?)"),
+])
+def test_mistyped_frames_mate_types_fits_and_parts_get_a_did_you_mean(tmp_path, old, new, expected):
+    """Issue 26.4, tried again from a fresh clone: a frame, mate type or fit typo had no hint."""
+    assert old in LAMP
+    res = runner.invoke(app, ["check", str(_write(tmp_path, LAMP.replace(old, new, 1)))])
+    assert res.exit_code == 2 and expected in res.output, res.output

@@ -339,14 +339,18 @@ KINEMATIC_TYPES = tuple(n for n, t in TYPES.items() if t.kind == "kinematic")
 def get_type(mate: str, name: str) -> MateType:
     """The type called ``name``, or a MateError listing the vocabulary."""
     if name not in TYPES:
-        raise MateError(mate, f"unknown mate type {name!r}; use one of: {', '.join(TYPES)}")
+        from ..text import did_you_mean
+        raise MateError(mate, f"unknown mate type {name!r}{did_you_mean(name, TYPES)}; use one of: "
+                              f"{', '.join(TYPES)}")
     return TYPES[name]
 
 
 def check_options(mate: str, mtype: MateType, fit: str, options: dict[str, Any]) -> dict[str, Any]:
     """Validate ``fit`` and ``options`` for ``mtype``; return options with defaults filled in."""
     if fit not in FIT_CLASSES:
-        raise MateError(mate, f"fit {fit!r} is not a fit class; use one of: {', '.join(FIT_CLASSES)}")
+        from ..text import did_you_mean
+        raise MateError(mate, f"fit {fit!r} is not a fit class{did_you_mean(fit, FIT_CLASSES)}; use one "
+                              f"of: {', '.join(FIT_CLASSES)}")
     if fit not in mtype.fits:
         raise MateError(mate, f"a {mtype.name} mate takes fit {' or '.join(mtype.fits)}, not {fit!r}")
     unknown = sorted(set(options) - set(mtype.options))

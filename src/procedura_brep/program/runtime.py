@@ -363,10 +363,14 @@ def _eval_part(b: _Build, decl: registry.PartDecl, params: dict[str, Any], glb: 
 
 def _frame(b: _Build, reg: registry.Registry, mname: str, part: str, frame: str) -> np.ndarray:
     if part not in reg.parts:
-        raise MateError(mname, f"unknown part {part!r}; parts: {', '.join(reg.parts)}")
+        from ..text import did_you_mean
+        raise MateError(mname, f"unknown part {part!r}{did_you_mean(part, reg.parts)}; parts: "
+                               f"{', '.join(reg.parts)}")
     frames = reg.frames.get(part, {})
     if frame not in frames:
-        raise MateError(mname, f"part {part!r} publishes no frame {frame!r}; its frames: "
+        from ..text import did_you_mean
+        raise MateError(mname, f"part {part!r} publishes no frame {frame!r}"
+                               f"{did_you_mean(frame, frames)}; its frames: "
                                f"{', '.join(frames) or 'none (add frames(...))'}")
     return loc_matrix(frames[frame])
 

@@ -397,8 +397,8 @@ def _run(model: CompiledModel, root: Path, wanted: tuple[str, ...], frames: bool
     masses = link_masses(model, art)
     report = BatteryReport([])
     if temp:
-        report.notes.append("no out_dir: the bundle went to a temporary directory (removed), "
-                            "so no failure frames were saved; pass out_dir to keep them")
+        report.notes.append("the bundle went to a temporary directory (removed), so no failure "
+                            "frames were saved; give an output directory (simulate -o DIR) to keep them")
 
     def run(cid: str, fn: Callable[[], CheckResult | tuple[CheckResult, list]], mj=None,
             done: CheckResult | None = None) -> None:
