@@ -135,3 +135,39 @@ def test_a_bad_size_in_a_program_is_a_finding_naming_the_part_and_the_helper(wor
     errors = [f for f in model.findings if f.severity == "error"]
     assert [f.part for f in errors] == ["planet"]
     assert "spur_gear: teeth must be in [6, 400], got 5" in errors[0].message and errors[0].line
+
+
+def test_a_part_named_like_a_helper_builds_with_its_make_alias(worker):
+    """A part named ``lead_screw`` hides the helper ``lead_screw`` inside the program (its
+    function takes the name: a recorded run's first attempt called the part itself); the same
+    helper stays reachable as ``make_lead_screw`` and its build request says so."""
+    from procedura_brep.agent.context import part_slice
+    from procedura_brep.agent.plan import parse_plan
+    src = '''"""A lead screw part named like the helper."""
+from procedura_brep.program import *
+
+# === params ===
+screw_d = 10.0  # mm
+screw_lead = 2.0  # mm per turn
+
+# === helpers ===
+
+# === parts ===
+@part(detail="major", material="steel", description="a lead screw")
+def lead_screw():
+    return make_lead_screw(screw_d, screw_lead, 40.0)
+
+# === frames ===
+frames("lead_screw", hub=Location((0, 0, 0)))
+
+# === assembly ===
+'''
+    model = worker.compile(src)
+    assert model.ok, [f.message for f in model.findings]
+    shadowed = worker.compile(src.replace("make_lead_screw(", "lead_screw("))
+    assert not shadowed.ok and "takes 0 positional arguments" in shadowed.findings[0].message
+    plan = parse_plan({"parts": [{"name": "base", "detail": "silhouette", "description": "a base plate 100 mm"},
+                                 {"name": "lead_screw", "detail": "major", "description": "a 10 mm lead screw",
+                                  "mates": [{"partner": "base", "type": "revolute", "nominal": "screw_d"}]}]})
+    assert "so build its geometry with make_lead_screw(...)" in part_slice(plan, plan.part("lead_screw"))
+    assert "make_" not in part_slice(plan, plan.part("base"))

@@ -118,6 +118,11 @@ def part_slice(plan: Plan, part: PlannedPart) -> str:
                         "there, it only places the part: model the contact surfaces yourself)")
     else:
         rows.append("It is the root: it mates to nothing; publish the frames later parts need.")
+    from ..program import GEARING_ALIASES
+    if part.name in GEARING_ALIASES.values():
+        rows.append(f"Its name is also the helper {part.name}(...): inside the program that name is "
+                    f"this part's function, so build its geometry with make_{part.name}(...), the "
+                    f"same helper under a name no part takes.")
     if part.couple is not None:
         c = part.couple
         rows.append(f"Its first joint follows {c.driver}'s ({c.type}): after its mate, write "

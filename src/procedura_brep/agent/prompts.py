@@ -68,7 +68,8 @@ def gearing_reference() -> str:
     them: each signature and its docstring's first paragraph, then what the coupling gate checks."""
     from ..program import gearing
     rows = ["## Transmission helpers (real teeth and threads; each around its own origin, axis +Z, "
-            "returns one solid)"]
+            "returns one solid; each also as make_<name>, e.g. make_rack(...), which a part "
+            "named like the helper, def rack(), does not hide)"]
     for name in ("spur_gear", "ring_gear", "rack", "lead_screw", "lead_nut", "pulley"):
         fn = getattr(gearing, name)
         doc = inspect.cleandoc(fn.__doc__ or "").split("\n\n")[0].replace("\n", " ")

@@ -17,6 +17,9 @@ _DENY_SUBSTRINGS = ("import", "export", "Export", "Mesher", "Import", "FontManag
 _API = ("material", "part", "paint", "frames", "mate", "couple")
 #: Transmission geometry (:mod:`.gearing`): gears, racks, lead screws, pulleys.
 _GEARING = ("spur_gear", "ring_gear", "rack", "lead_screw", "lead_nut", "pulley")
+#: The same helpers as ``make_<name>``: a part named like a helper (``def rack():``) hides the
+#: helper's name inside the program, never these.
+GEARING_ALIASES = {f"make_{n}": n for n in _GEARING}
 _LAZY = {"compile_source": ".sandbox", "Worker": ".sandbox", "CompileOptions": ".sandbox",
          "parse_sections": ".sections", "Sections": ".sections", "set_params": ".edit"}
 
@@ -40,13 +43,13 @@ def build123d_names() -> list[str]:
 
 def __getattr__(name: str) -> Any:
     if name == "__all__":
-        return [*_API, *_GEARING, "math", *build123d_names()]
+        return [*_API, *_GEARING, *GEARING_ALIASES, "math", *build123d_names()]
     if name in _API:
         from . import api
         return getattr(api, name)
-    if name in _GEARING:
+    if name in _GEARING or name in GEARING_ALIASES:
         from . import gearing
-        return getattr(gearing, name)
+        return getattr(gearing, GEARING_ALIASES.get(name, name))
     if name in _LAZY:
         import importlib
         return getattr(importlib.import_module(_LAZY[name], __name__), name)
