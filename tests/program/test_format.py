@@ -105,6 +105,17 @@ def test_parent_must_be_placed_first(worker):
     assert any(f.code == "plan-order" and "'post' is not placed yet" in f.message for f in m.findings)
 
 
+def test_a_failed_mate_is_the_cause_its_children_name(worker):
+    """A mate that fails before placing (a mistyped frame) leaves its child unplaced; the mates
+    below it say so and name it, instead of asking to reorder mates already in plan order."""
+    m = worker.compile(LAMP.replace('mate("post.foot"', 'mate("post.fot"', 1))
+    codes = [(f.code, f.mate) for f in m.findings]
+    assert codes[0] == ("mate", "post_fot") and ("unplaced", "arm_pivot") in codes, codes
+    below = next(f for f in m.findings if f.code == "unplaced")
+    assert "it hangs below mate post_fot, which failed" in below.message
+    assert not any(f.code == "plan-order" for f in m.findings)
+
+
 def test_located_part_keeps_its_local_geometry_and_step_names(worker):
     """A part returned as ``Pos(...) * Box(...)`` (a located shape) with no features keeps its
     offset; every part's local solid carries no location (STEP names stay on products)."""

@@ -452,13 +452,24 @@ def _place(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]]) -> No
     carriers = {n: _carrier(s) for n, s in b.solids.items()}
     jointed = {names[0]}
     cuts = {str(c.named.get("closes")) for c in reg.couplings if c.type == "linkage"}
+    # the children of mates that failed before placing (a missing frame, a bad type): their
+    # own children's "not placed" is a consequence, said as one
+    kept = {m["decl"].name for m in mates}
+    unplaced = {d.child: d.name for d in reg.mates if d.name not in kept}
     for m in mates:
         decl, mtype, opts = m["decl"], m["type"], m["options"]
         home = pl.home_value(mtype.name, opts) if mtype.kind == "kinematic" else None
         D = pl.delta(mtype.name, home)
         if decl.parent not in b.world:
-            b.fail("plan-order", f"mate {decl.name}: parent {decl.parent!r} is not placed yet; declare "
-                                 f"mates in plan order (root: {names[0]!r})", mate=decl.name, line=decl.line)
+            if decl.parent in unplaced:  # a consequence: the first error is the cause
+                b.fail("unplaced", f"mate {decl.name}: parent {decl.parent!r} was not placed: it hangs "
+                                   f"below mate {unplaced[decl.parent]}, which failed (fix that first)",
+                       mate=decl.name, line=decl.line)
+                unplaced[decl.child] = unplaced[decl.parent]
+            else:
+                b.fail("plan-order", f"mate {decl.name}: parent {decl.parent!r} is not placed yet; "
+                                     f"declare mates in plan order (root: {names[0]!r})",
+                       mate=decl.name, line=decl.line)
             continue
         solved = pl.solve(b.world[decl.parent], m["fp"], m["fc"], D)
         m["world_frame"] = b.world[decl.parent] @ m["fp"] @ D
