@@ -160,3 +160,38 @@ def test_a_failed_meshing_part_is_a_finding_not_a_broken_result(worker):
     assert any(f.code == "part-exception" and f.part == "wheel" for f in m.findings)
     assert "wheel" not in [p.name for p in m.parts]
     assert {c.name: c.mesh for c in m.couplings}["wheel_hub__pinion_hub"] == ("wheel", "pinion")
+
+
+CARRIAGE = (SRC
+            .replace('''@part(detail="major", material="steel", description="nut block on the base, the screw through its bore")
+def nut():
+    return Box(20, 20, 20) - Cylinder(screw_d / 2, 20)''',
+                     '''@part(detail="major", material="steel", description="carriage, the screw through a clearance bore")
+def carriage():
+    return Box(20, 20, 20) - Cylinder(screw_d / 2 + 1, 20)
+
+@part(detail="major", material="brass", description="threaded nut bolted to the carriage's end")
+def nut():
+    return Box(20, 20, 10) - Cylinder(screw_d / 2, 10)''')
+            .replace('frames("nut", slide=Location((0, 0, 0)))',
+                     'frames("carriage", slide=Location((0, 0, 0)), face=Location((0, 0, 10)))\n'
+                     'frames("nut", seat=Location((0, 0, -5)))')
+            .replace('mate("nut.slide", "base.n_rail"', 'mate("carriage.slide", "base.n_rail"')
+            .replace(SCREW, 'mate("nut.seat", "carriage.face", "seat_face", nominal="screw_d", features=False)\n'
+                            'couple("carriage_slide", "screw_hub", "screw", lead="screw_lead")'))
+
+
+def test_the_screw_meshes_with_the_nut_bolted_to_the_carriage_not_the_carriage(worker):
+    """A screw's engaging part is the nut on the slide's side (the smallest part there that the
+    screw axis passes through), not the slide's child it is bolted to: B2 would otherwise sweep
+    the threaded screw through its threaded nut (a recorded run spent 17 minutes there)."""
+    assert CARRIAGE != SRC and "def carriage" in CARRIAGE and 'carriage_slide"' in CARRIAGE
+    m = _compile(worker, CARRIAGE)
+    assert not [e for e in _errors(m) if "coupl" in e], _errors(m)
+    assert {c.name: c.mesh for c in m.couplings}["carriage_slide__screw_hub"] == ("screw", "nut")
+    named = _compile(worker, CARRIAGE.replace('lead="screw_lead")', 'lead="screw_lead", nut="carriage")'))
+    assert {c.name: c.mesh for c in named.couplings}["carriage_slide__screw_hub"] == ("screw", "carriage")
+    typo = _compile(worker, CARRIAGE.replace('lead="screw_lead")', 'lead="screw_lead", nut="nutt")'))
+    assert any("nut='nutt' is not a part" in e and "nut" in e for e in _errors(typo)), _errors(typo)
+    base = _compile(worker, CARRIAGE.replace('lead="screw_lead")', 'lead="screw_lead", nut="base")'))
+    assert any("nut='base' does not move with carriage" in e for e in _errors(base)), _errors(base)

@@ -47,6 +47,7 @@ import numpy as np
 
 from ..config import TOL
 from ..findings import Severity
+from ..program.couplings import rigid_groups
 from ..program.model import CompiledCoupling, CompiledMate, CompiledModel, CompiledPart, Finding
 from .policy import GateResult, result
 
@@ -108,23 +109,7 @@ class Teeth:
 def links(model: CompiledModel) -> dict[str, str]:
     """Part name -> the name of its rigid link's first part (parts joined by static mates; a
     colour block goes with its painted part)."""
-    root = {p.name: p.name for p in model.parts}
-
-    def find(n: str) -> str:
-        while root[n] != n:
-            root[n] = root[root[n]]
-            n = root[n]
-        return n
-
-    for m in model.mates:
-        if m.kind == "static" and m.child in root and m.parent in root:
-            a, b = find(m.child), find(m.parent)
-            if a != b:
-                root[max(a, b)] = min(a, b)
-    for p in model.parts:
-        if p.block_of and p.block_of in root:
-            root[p.name] = find(p.block_of)
-    return {n: find(n) for n in root}
+    return rigid_groups(model)
 
 
 def _moving(model: CompiledModel, group: dict[str, str], part: str) -> list[CompiledPart]:

@@ -256,7 +256,9 @@ def couple(driven: str, driver: str, type: str, **named: Any) -> None:
             ``True`` for a ring gear), ``rack_pinion`` (a prismatic and a revolute, either
             order; ``pinion_teeth=``, ``module=``; pitch radius m z / 2; ``rack="part"`` names
             the rack part when it is not the slider), ``screw`` (driver revolute, driven
-            prismatic; ``lead=`` in mm per turn, ``hand="right"|"left"``), ``belt`` (two
+            prismatic; ``lead=`` in mm per turn, ``hand="right"|"left"``; ``nut="part"`` names the
+            threaded nut when it is not the smallest part on the slide's side that the screw
+            axis passes through), ``belt`` (two
             revolutes, same sense; ``driver_teeth=``/``driven_teeth=`` or
             ``driver_diameter=``/``driven_diameter=``), ``linkage`` (a closed loop: any two
             joints of the loop; ``closes="<mate>"`` names the loop's cut joint, a revolute or

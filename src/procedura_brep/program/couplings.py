@@ -93,7 +93,7 @@ SPECS: dict[str, CouplingSpec] = {s.name: s for s in (
     CouplingSpec("rack_pinion", ("prismatic", "revolute"), ("revolute", "prismatic"),
                  (("pinion_teeth", "module"),), {"rack": None}, {"rack": ""}, either=True),
     CouplingSpec("screw", ("prismatic",), ("revolute",), (("lead",),),
-                 {"hand": ("right", "left")}, {"hand": "right"}),
+                 {"hand": ("right", "left"), "nut": None}, {"hand": "right", "nut": ""}),
     CouplingSpec("belt", ("revolute",), ("revolute",),
                  (("driver_teeth", "driven_teeth"), ("driver_diameter", "driven_diameter")), {}, {}),
     CouplingSpec("linkage", ("revolute", "prismatic"), ("revolute", "prismatic"), ((),),
@@ -366,8 +366,85 @@ def _screw(d: CoupleDecl, driven: CompiledMate, driver: CompiledMate, v: dict[st
     sense = _parallel(driver, driven, "a lead screw and its nut")
     hand = 1.0 if d.named.get("hand", "right") == "right" else -1.0
     rides = _rides(driver, driven, model)
-    nut = driven.parent if rides else driven.child
+    side = driven.parent if rides else driven.child
+    named = str(d.named.get("nut") or "")
+    if named:
+        names = [p.name for p in model.parts if not p.block_of]
+        if named not in names:
+            raise _Refusal(f"nut={named!r} is not a part{did_you_mean(named, names)}")
+        if rigid_groups(model).get(named) != rigid_groups(model).get(side):
+            raise _Refusal(f"nut={named!r} does not move with {side} (the nut side of {driven.name})")
+        nut = named
+    else:
+        nut = _nut(model, side, driver)
     return -hand * sense * (-1.0 if rides else 1.0) * v["lead"] / (2 * math.pi), (driver.child, nut)
+
+
+def rigid_groups(model: CompiledModel) -> dict[str, str]:
+    """Part name -> the name of its rigid group's first part (parts joined by static mates; a
+    colour block goes with its painted part)."""
+    root = {p.name: p.name for p in model.parts}
+
+    def find(n: str) -> str:
+        while root[n] != n:
+            root[n] = root[root[n]]
+            n = root[n]
+        return n
+
+    for m in model.mates:
+        if m.kind == "static" and m.child in root and m.parent in root:
+            a, b = find(m.child), find(m.parent)
+            if a != b:
+                root[max(a, b)] = min(a, b)
+    for p in model.parts:
+        if p.block_of and p.block_of in root:
+            root[p.name] = find(p.block_of)
+    return {n: find(n) for n in root}
+
+
+def _nut(model: CompiledModel, side: str, screw: CompiledMate) -> str:
+    """The part that engages the screw on the nut's side: of the parts rigid with ``side``
+    (the slide's moving or fixed part), those whose box the screw axis passes through within
+    the screw's own span along it, the smallest (a nut bolted in a carriage, not the carriage
+    the screw passes through); ``side`` itself when no part qualifies."""
+    from .. import kernel
+
+    group = rigid_groups(model)
+    origin = np.asarray(screw.world_frame, float)[:3, 3]
+    axis = _axis(screw)
+    try:
+        s_lo, s_hi = (np.asarray(x, float) for x in kernel.bbox(model.part(screw.child).shape(),
+                                                                  optimal=False))
+    except KeyError:
+        return side
+    s_span = _line_span(s_lo, s_hi, origin, axis)
+    best: tuple[float, str] | None = None
+    for p in model.parts:
+        if p.block_of or p.name == screw.child or group.get(p.name) != group.get(side):
+            continue
+        lo, hi = (np.asarray(x, float) for x in kernel.bbox(p.shape(), optimal=False))
+        span = _line_span(lo, hi, origin, axis)
+        if span is None or s_span is None or span[1] < s_span[0] or s_span[1] < span[0]:
+            continue
+        size = float(np.prod(np.maximum(hi - lo, 1e-9)))
+        if best is None or size < best[0]:
+            best = (size, p.name)
+    return best[1] if best else side
+
+
+def _line_span(lo: np.ndarray, hi: np.ndarray, origin: np.ndarray, d: np.ndarray
+               ) -> tuple[float, float] | None:
+    """The params (along unit ``d`` from ``origin``) where the line enters and leaves the box
+    ``lo``-``hi`` (slab test, 1e-6 mm slack), or None when it misses it."""
+    t0, t1 = -math.inf, math.inf
+    for k in range(3):
+        if abs(d[k]) < 1e-12:
+            if origin[k] < lo[k] - 1e-6 or origin[k] > hi[k] + 1e-6:
+                return None
+            continue
+        a, b = (lo[k] - origin[k]) / d[k], (hi[k] - origin[k]) / d[k]
+        t0, t1 = max(t0, min(a, b)), min(t1, max(a, b))
+    return (t0, t1) if t0 <= t1 else None
 
 
 def _linkage(d: CoupleDecl, driven: CompiledMate, driver: CompiledMate, v: dict[str, float],
