@@ -321,3 +321,45 @@ def cover(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
 
 __all__ = ["Cover", "Face", "cell_side", "cover", "cover_of", "cover_radius", "faces", "faces_along",
            "invariant_under_rotation", "side_of_motion", "surface"]
+
+
+def radial_range(tris: np.ndarray, devs: np.ndarray, point: np.ndarray, axis: np.ndarray
+                 ) -> tuple[float, float]:
+    """(least, greatest) distance (mm) from the line through ``point`` along unit ``axis`` of
+    the exact surface meshed as ``tris`` (n, 3, 3) with per-triangle deviations ``devs``; both
+    conservative: the least is lowered and the greatest raised by each triangle's deviation.
+
+    A bounded solid that the line passes through meets it on its boundary, so these bound the
+    solid too. Every motion about or along the line (a turn about it, a slide along it, a screw
+    motion of both) keeps each point's distance from it, so two parts whose ranges do not
+    overlap (a screw inside a carriage's clearance bore) never meet under such a motion
+    (:func:`radial_apart`). A triangle's distance is that of its projection across the line:
+    0 when the projected triangle covers the line's point, else the nearest of its edges.
+    """
+    if len(tris) == 0:
+        return math.inf, -math.inf
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    rel = np.asarray(tris, float) - np.asarray(point, float)
+    e1 = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(a, e1)
+    p = np.stack([rel @ e1, rel @ e2], axis=-1)  # (n, 3, 2): the triangles across the line
+    far = float((np.linalg.norm(p, axis=-1).max(axis=1) + devs).max())
+    # nearest point of each edge to the origin
+    q0, q1 = p, np.roll(p, -1, axis=1)
+    d = q1 - q0
+    dd = np.einsum("nij,nij->ni", d, d)
+    t = np.clip(np.divide(-np.einsum("nij,nij->ni", q0, d), dd, out=np.zeros_like(dd),
+                          where=dd > 0), 0.0, 1.0)
+    edge = np.linalg.norm(q0 + t[..., None] * d, axis=-1).min(axis=1)
+    # the origin inside the projected triangle: the three edge cross products share a sign
+    cr = q0[..., 0] * d[..., 1] - q0[..., 1] * d[..., 0]  # cross(d, -q0) sign convention
+    inside = np.all(cr >= 0, axis=1) | np.all(cr <= 0, axis=1)
+    near = np.where(inside, 0.0, edge) - devs
+    return max(float(near.min()), 0.0), far
+
+
+def radial_apart(a: tuple[float, float], b: tuple[float, float], margin: float = 0.0) -> bool:
+    """Whether two radial ranges (:func:`radial_range`) leave a gap wider than ``margin``: one
+    part lies wholly inside a cylinder about the line that the other lies wholly outside."""
+    return a[1] + margin < b[0] or b[1] + margin < a[0]
