@@ -232,3 +232,23 @@ def test_the_report_section_lists_every_part_and_the_total():
     assert section["frame"] == "world" and section["units"]["inertia"] == "kg m^2"
     izz = rows["a"]["inertia_kg_m2"][2][2] + rows["b"]["inertia_kg_m2"][2][2]
     assert total["inertia_kg_m2"][2][2] == pytest.approx(izz, rel=1e-12)  # both on the Z axis
+
+
+def test_floored_moments_survive_the_six_digits_an_mjcf_file_keeps():
+    """A lamina's moments sit on the triangle inequality (C = A + B) and a slender part's nearly
+    so; rounded to the 6 significant digits MuJoCo's XML writer keeps they tipped over and the
+    written model.xml was refused ("inertia must satisfy A + B >= C": a recorded lead screw's,
+    1.63693e-06 + 0.00342787 < 0.00342951). floored() keeps a margin that rounding cannot eat."""
+    from procedura_brep.articulation.mass import MassProps, floored
+
+    rng = np.random.default_rng(3)
+    cases = [np.array([1.63693e-06, 0.00342787, 0.00342787 + 1.63693e-06])]
+    cases += [np.array([a, b, a + b]) for a, b in rng.uniform(1e-7, 1e-2, (300, 2))]
+    for w in cases:
+        q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+        got, _ = floored(MassProps(1.0, np.zeros(3), q @ np.diag(w) @ q.T)).principal()
+        r = np.array([float(f"{x:g}") for x in got])  # what to_xml writes
+        for k in range(3):
+            assert r[k] <= r.sum() - r[k], (w, got, r)
+        # barely moved: by the margin (2e-5 of the largest) and the floor at most
+        assert np.all(np.abs(np.sort(got) - np.sort(w)) <= 2.1e-5 * w.max() + 2e-9)

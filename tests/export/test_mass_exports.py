@@ -68,3 +68,10 @@ def test_usd_carries_the_declared_and_shell_masses(lamp, out):
             if p.HasAPI(UsdPhysics.MassAPI) and p.HasAPI(UsdPhysics.RigidBodyAPI)}
     assert mass["arm"] == pytest.approx(ARM_KG, rel=1e-6)
     assert mass["base"] == pytest.approx(base_link_kg(lamp), rel=1e-6)
+
+
+def test_model_xml_balances_inertia_when_loaded_on_its_own(out):
+    """The written file keeps the compiler's balanceinertia (MjSpec.to_xml drops it), so a
+    moment its 6 digits tipped past A + B >= C is balanced by any loader, not refused."""
+    root = ET.parse(out / "model.xml").getroot()
+    assert root.find("compiler").get("balanceinertia") == "true"

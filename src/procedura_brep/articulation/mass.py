@@ -35,6 +35,9 @@ from .tree import Articulation
 MIN_MASS_KG = 1e-6
 #: Smallest principal inertia written for any link (kg m^2).
 MIN_INERTIA_KGM2 = 1e-9
+#: Each principal moment is kept at least this fraction of the largest below the sum of the
+#: other two (:func:`floored`): 20 times what rounding to 6 significant digits can take.
+TRIANGLE_MARGIN = 2e-5
 
 
 @dataclass(frozen=True)
@@ -145,12 +148,16 @@ def floored(p: MassProps) -> MassProps:
     mass = max(p.mass, MIN_MASS_KG)
     w, v = np.linalg.eigh((p.inertia + p.inertia.T) / 2)
     w = np.maximum(w, MIN_INERTIA_KGM2)
-    # triangle inequality: each moment <= sum of the other two
+    # triangle inequality: each moment <= sum of the other two, with a margin of
+    # TRIANGLE_MARGIN of the largest: a flat or slender part sits on the boundary (a lamina's
+    # C = A + B), and the 6 significant digits an MJCF file keeps would tip it over (MuJoCo
+    # then refuses the file: a recorded lead screw did)
+    margin = TRIANGLE_MARGIN * float(w.max())
     for k in range(3):
         others = w.sum() - w[k]
-        if w[k] > others:
-            w[(k + 1) % 3] += (w[k] - others) / 2 + MIN_INERTIA_KGM2
-            w[(k + 2) % 3] += (w[k] - others) / 2 + MIN_INERTIA_KGM2
+        if w[k] > others - margin:
+            w[(k + 1) % 3] += (w[k] - others + margin) / 2 + MIN_INERTIA_KGM2
+            w[(k + 2) % 3] += (w[k] - others + margin) / 2 + MIN_INERTIA_KGM2
     return MassProps(mass, p.com, v @ np.diag(w) @ v.T)
 
 

@@ -139,6 +139,15 @@ def _geoms(spec, body, model: CompiledModel, name: str, frame: np.ndarray,
         c.mass = 0
 
 
+def _balanced(xml: str) -> str:
+    """``xml`` with ``balanceinertia="true"`` on its compiler element: ``MjSpec.to_xml`` leaves
+    the flag out, so a file loaded on its own would refuse a moment its rounding tipped past the
+    triangle inequality (the floored moments keep a margin; this is the second guard)."""
+    if "balanceinertia" in xml:
+        return xml
+    return xml.replace("<compiler ", '<compiler balanceinertia="true" ', 1)
+
+
 def _inertial(body, mp: MassProps) -> None:
     w, v = mp.principal()
     body.explicitinertial = True
@@ -327,7 +336,7 @@ def mjcf_files(model: CompiledModel, *, art: Articulation | None = None,
     """``{"model.xml": bytes}`` plus the meshes under :data:`MESHDIR` it references."""
     b = build_mjcf(model, art=art, masses=masses)
     b.spec.compile()
-    out = {"model.xml": b.spec.to_xml().encode()}
+    out = {"model.xml": _balanced(b.spec.to_xml()).encode()}
     for name, data in b.assets.items():
         out[f"{MESHDIR}/{name}"] = data
     return out
