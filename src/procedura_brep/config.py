@@ -109,6 +109,11 @@ class Tolerances:
             sweep that needs more (a part that overlaps its neighbours at every pose) stops and
             B2 fails with a finding naming the joint and the pose reached, instead of running
             for minutes. The recorded 31-part drill press needs at most 235 for one joint.
+        sweep_time_s: battery B2: the most wall-clock seconds one joint's exact sweep may run
+            (checked between booleans and between poses; a single OCCT boolean cannot be
+            interrupted). A sweep that runs longer stops and the rest of its range is **not
+            verified**, as with ``sweep_max_booleans``: a threaded lead screw swept against its
+            threaded nut spent 17 minutes of CPU in one joint's booleans.
         wheel_axis_deg: articulation: a wheel's symmetry axis is parallel to its joint axis
             within this angle.
         wheel_centre_mm: articulation: a wheel's symmetry axis passes this close to its joint
@@ -195,6 +200,7 @@ class Tolerances:
     sweep_cell_mm: float = 1.5
     sweep_max_cells: int = 200_000
     sweep_max_booleans: int = 1500
+    sweep_time_s: float = 60.0
     nonconvex_ratio: float = 1.3
     normal_crease_deg: float = 30.0
     wheel_axis_deg: float = 1.0

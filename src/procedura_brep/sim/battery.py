@@ -187,7 +187,9 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
     samples, :mod:`.sweep`; spherical joints tilted to half and full cone in 8 directions).
     The MuJoCo sweeps run first (:func:`.dynamics.sweep_joints`: independent joints together),
     then the exact ones (:func:`.sweep.sweep_all`: shared with a second process on a second
-    core), each given the values its joint reached."""
+    core), each given the values its joint reached. A joint that a coupling drives is swept
+    with the head of its chain (its row's ``swept_with``; a collision it causes is that head's
+    finding); a joint a linkage moves is swept on its own range."""
     import mujoco
 
     from .sweep import sweep_all
@@ -195,7 +197,7 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
     floor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "floor")
     m.geom_contype[floor] = m.geom_conaffinity[floor] = 0  # the root is welded: no floor
     # a coupled joint has no servo: it moves with its driver (the coupling's equality), and
-    # battery B8 measures how; its exact sweep below still runs on its own range
+    # battery B8 measures how; the exact sweep below moves it with the head of its chain
     swept = sweep_joints(m, art, [d.name for j in art.joints if not j.kind.ball for d in j.dofs()
                                   if not d.driver])
     # each joint's exact sweep, with the values MuJoCo reached (an overshoot is swept too)
@@ -225,12 +227,16 @@ def check_b2(model: CompiledModel, art, m) -> tuple[CheckResult, list[np.ndarray
         pen = hit.depth
         if j.coupling is not None:
             rows[j.name] = {"driven_by": j.coupling.driver, **hit.as_dict()}
+            if hit.swept_with:
+                rows[j.name]["exact_sweep"] = (f"swept with its driver {hit.swept_with!r}: see that "
+                                               f"joint's row")
         elif r:
             rows[j.name] = {**_reach_row(r), **hit.as_dict()}
         else:  # a cylindrical joint: one row per DOF for the drive, one for the exact sweep
             rows[j.name] = hit.as_dict()
             rows.update({n: _reach_row(x) for n, x in reached.items()})
-        _why_no_samples(rows[j.name], hit)
+        if not hit.swept_with:
+            _why_no_samples(rows[j.name], hit)
         bad = False
         if hit.stopped:
             unverified.append(_stopped(j.name, hit))
@@ -281,9 +287,13 @@ def _why_no_samples(row: dict[str, Any], hit: SweepHit) -> None:
                               "moved part comes within reach of a fixed one along the range")
 
 
-def _stopped(joint: str, hit) -> str:
-    """What a sweep stopped at its boolean budget leaves not verified (never a failure: the
-    parts may merely touch)."""
+def _stopped(joint: str, hit: SweepHit) -> str:
+    """What a sweep stopped at its boolean budget or its time bound leaves not verified (never
+    a failure: the parts may merely touch)."""
+    if hit.stopped_by == "time":
+        return (f"joint {joint!r}: the exact sweep ran past its bound of {TOL.sweep_time_s:g} s "
+                f"and stopped ({hit.stopped}): the rest of its range is not verified (config "
+                f"TOL.sweep_time_s)")
     return (f"joint {joint!r}: the exact sweep spent its budget of {TOL.sweep_max_booleans} "
             f"booleans and stopped ({hit.stopped}): the rest of its range is not verified "
             f"(config TOL.sweep_max_booleans)")

@@ -42,8 +42,32 @@ Cost is kept down by prefilters, all conservative for the thickness measure:
   enter the fixed part only where the fixed part's outward normal opposes its velocity, never
   on such a face, so a tilting head between the cheeks of its yoke costs no boolean there.
 
-A sweep that still spends ``TOL.sweep_max_booleans`` stops and is **not verified** (it names
-the pair and the pose it reached), never a pass and never a failure of parts that merely touch.
+A sweep that still spends ``TOL.sweep_max_booleans``, or runs longer than ``TOL.sweep_time_s``
+(checked between booleans and between poses: one OCCT boolean cannot be interrupted from Python,
+OCP binds ``Message_ProgressIndicator`` without a way to subclass it), stops and is **not
+verified** (it names the pair and the pose it reached), never a pass and never a failure of parts
+that merely touch.
+
+**Couplings** (gear, rack and pinion, screw, belt): a joint that another drives
+(:meth:`Articulation.root_driver`) is not swept on its own; the head of its chain is swept, and
+at every head value ``q`` each joint it drives, directly or through a chain, stands at
+``ratio * q`` (positions from the compiled pose, where every coupled pair meshes). The head's
+range keeps every driven joint inside its limits; a continuous head with no limited joint in its
+chain turns until each continuous joint of the chain has turned once (relative phases of two
+turning parts that repeat only after more turns are not all sampled). Parts then fall into groups
+that move alike (the moving joints on their path from the root); every two parts of different
+groups are a pair, except the two parts a coupling meshes (``source.mesh``: the coupling gate
+checks them). A pair whose relative motion is one joint's (a part on the driven carriage against
+a fixed stop; a part on the driven link against one on the driver's link when the driven joint
+hangs below the driver) is swept as that joint over its coupled values, with every prefilter
+above. Any other pair (a part on the turning screw against one on the sliding carriage) is swept
+*compound* (:meth:`SweepScene._sweep_compound`): both parts posed relative to each other at each
+head value, whole surface covers, conservative advancement with each point's speed bounded by
+the sum over the joints that move it of ``|ratio|`` times its lever about that joint (a slide's
+1000 mm/m), so the 1 mm guarantee holds for every moved part; when the pair's relative motion is
+about one line (a screw turning in a nut's carriage) and the pair is clear at the start, the faces
+that motion maps onto themselves are left out as for a turn. Linkages (type ``linkage``, ratio
+0: a closed loop) are not followed: a joint a linkage moves is swept on its own range, as before.
 """
 
 from __future__ import annotations
@@ -51,6 +75,8 @@ from __future__ import annotations
 import dataclasses
 import logging
 import math
+import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -109,9 +135,10 @@ class SweepHit:
     booleans: int = 0
     step_mm: float = 0.0
     skipped_rest: list[tuple[str, str]] = field(default_factory=list)
-    #: Where the sweep stopped because it spent ``TOL.sweep_max_booleans`` ("" if it did not):
-    #: "<moved> against <fixed> at <pose>". A stopped sweep is unfinished: the poses after it
-    #: are **not verified** (B2 says so; it neither passes nor fails them).
+    #: Where the sweep stopped because it spent ``TOL.sweep_max_booleans`` or ran past
+    #: ``TOL.sweep_time_s`` ("" if it did not): "<moved> against <fixed> at <pose>". A stopped
+    #: sweep is unfinished: the poses after it are **not verified** (B2 says so; it neither
+    #: passes nor fails them).
     stopped: str = ""
     #: The first pose (label) at which the worst pair's new interference exceeded
     #: ``TOL.sim_penetration_mm``: where the moved part meets the fixed one ("" if none).
@@ -121,6 +148,12 @@ class SweepHit:
     contact: list[tuple[str, str]] = field(default_factory=list)
     #: World point (mm) inside the worst common, at the pose ``at``.
     point: list[float] = field(default_factory=list)
+    #: What stopped the sweep: "booleans" (``TOL.sweep_max_booleans``), "time"
+    #: (``TOL.sweep_time_s``) or "" (it finished).
+    stopped_by: str = ""
+    #: A driven joint's: the head of its chain of couplings, whose sweep moved it ("" for a
+    #: joint swept itself).
+    swept_with: str = ""
 
     def as_dict(self) -> dict:
         return {"new_penetration_mm": self.depth, "volume_mm3": self.volume,
@@ -130,16 +163,22 @@ class SweepHit:
                 "max_step_mm": self.step_mm,
                 "rest_interfering_pairs": [list(p) for p in self.skipped_rest],
                 "contact_pairs": [list(p) for p in self.contact],
-                "not_verified": self.stopped or None}
+                "not_verified": self.stopped or None, "stopped_by": self.stopped_by or None,
+                "swept_with": self.swept_with or None}
 
 
 class _BudgetSpent(Exception):
-    """A joint's sweep reached ``TOL.sweep_max_booleans`` (internal: :meth:`SweepScene.sweep`
-    turns it into :attr:`SweepHit.stopped`)."""
+    """A joint's sweep reached ``TOL.sweep_max_booleans`` (``by`` "booleans") or
+    ``TOL.sweep_time_s`` (``by`` "time") (internal: :meth:`SweepScene.sweep` turns it into
+    :attr:`SweepHit.stopped`)."""
 
-    def __init__(self, where: str) -> None:
+    def __init__(self, where: str, by: str = "booleans") -> None:
         super().__init__(where)
-        self.where = where
+        self.where, self.by = where, by
+
+
+def _stop(hit: SweepHit, spent: _BudgetSpent) -> None:
+    hit.stopped, hit.stopped_by = spent.where, spent.by
 
 
 def joint_values(joint: Joint, radius_mm: float, extra: tuple[float, ...] = ()) -> list[float]:
@@ -232,15 +271,23 @@ class SweepScene:
         self._pair_cover: dict[tuple, tuple[tuple[Cover, cKDTree | None], tuple[Cover, cKDTree | None]]] = {}
         self._faces: dict[str, list[Face]] = {}  # each part's meshed faces, read once
         self._pair_near: dict[tuple, tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]] = {}
+        self._whole: dict[str, tuple[Cover, cKDTree | None]] = {}  # compound pairs' covers
         self.booleans = 0
         self._joint_start = 0  # self.booleans when the current joint's sweep began
+        self._deadline = math.inf  # time.monotonic() past which the current joint's sweep stops
 
-    def _spend(self, where) -> None:
-        """Count one exact boolean of the current joint's sweep; past the budget, stop the sweep
-        (``where`` is called for the message only then)."""
+    def _spend(self, where: Callable[[], str]) -> None:
+        """Count one exact boolean of the current joint's sweep; past the budget or the time
+        bound, stop the sweep (``where`` is called for the message only then)."""
         if self.booleans - self._joint_start >= TOL.sweep_max_booleans:
             raise _BudgetSpent(where())
+        self._tick(where)
         self.booleans += 1
+
+    def _tick(self, where: Callable[[], str]) -> None:
+        """Stop the current joint's sweep once it has run ``TOL.sweep_time_s``."""
+        if time.monotonic() > self._deadline:
+            raise _BudgetSpent(where(), "time")
 
     def surface(self, name: str, joint: Joint | None = None,
                 side: int = 0) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
@@ -355,25 +402,32 @@ class SweepScene:
         """
         moving = [p for lk in self.art.subtree(joint.child) for p in self.art.link(lk).parts]
         fixed = [p.name for p in self.model.parts if p.name not in set(moving)]
-        # a coupled pair's engaging parts (teeth on teeth, a nut on its screw) move together;
-        # swept one past the other they would collide: the coupling gate checks that pair
-        meshed = {frozenset(c.source.mesh) for c in self.art.couplings
-                  if joint.name in (c.driven, c.driver) and all(c.source.mesh)}
-        dirs = [d / np.linalg.norm(d) for d in self._invariant_dirs(joint)]
-        frame_inv = rigid_inverse(joint.frame)
+        meshed = self._meshed({joint.name})
         keep, at_rest = [], []
         for a in moving:
             for b in fixed:
-                if frozenset((a, b)) in meshed:
-                    continue
-                if not self._may_meet(joint, a, b, frame_inv):
-                    continue
-                if any(_slab_gap(self.extent(a, d), self.extent(b, d)) for d in dirs):
+                if frozenset((a, b)) in meshed or not self._may_collide(joint, a, b):
                     continue
                 if self.rest(a, b).depth > TOL.sweep_rest_interference_mm:
                     at_rest.append((a, b))
                 keep.append((a, b))
         return keep, at_rest
+
+    def _meshed(self, joints: set[str]) -> set[frozenset[str]]:
+        """The part pairs the couplings of ``joints`` mesh: a coupled pair's engaging parts
+        (teeth on teeth, a nut on its screw) move together; swept one past the other they would
+        collide: the coupling gate checks that pair."""
+        return {frozenset(c.source.mesh) for c in self.art.couplings
+                if {c.driven, c.driver} & joints and all(c.source.mesh)}
+
+    def _may_collide(self, joint: Joint, a: str, b: str) -> bool:
+        """False when moving ``a`` by ``joint`` over its range cannot bring it into ``b``: its
+        swept envelope misses ``b``'s box, or their exact extents along a direction the motion
+        preserves overlap by less than ``TOL.sim_penetration_mm``."""
+        if not self._may_meet(joint, a, b, rigid_inverse(joint.frame)):
+            return False
+        dirs = [d / np.linalg.norm(d) for d in self._invariant_dirs(joint)]
+        return not any(_slab_gap(self.extent(a, d), self.extent(b, d)) for d in dirs)
 
     def _near(self, joint: Joint, a: str, b: str, side: int) -> tuple[tuple[np.ndarray, ...],
                                                                        tuple[np.ndarray, ...]]:
@@ -477,38 +531,59 @@ class SweepScene:
         return ca.centres[near], radius
 
     def sweep(self, joint: Joint, extra: tuple[float, ...] = ()) -> SweepHit:
-        """The deepest new exact interference over the joint's samples; a sweep that spends
-        ``TOL.sweep_max_booleans`` stops there (:attr:`SweepHit.stopped`)."""
+        """The deepest new exact interference over the joint's samples, with every joint it
+        drives through couplings moved with it (see the module); a sweep that spends
+        ``TOL.sweep_max_booleans`` or runs ``TOL.sweep_time_s`` stops there
+        (:attr:`SweepHit.stopped`). A joint that another drives is swept here on its own range,
+        alone (:func:`sweep_all` sweeps it with the head of its chain instead)."""
+        self._deadline = time.monotonic() + TOL.sweep_time_s
+        try:
+            return self._sweep(joint, extra)
+        finally:
+            self._deadline = math.inf
+
+    def _sweep(self, joint: Joint, extra: tuple[float, ...] = ()) -> SweepHit:
         if joint.kind.ball:
             return self._sweep_ball(joint)
         if joint.kind.compound:
             return self._sweep_cylindrical(joint)
+        chain = coupled_chain(self.art, joint)
+        if chain:
+            return self._sweep_coupled(joint, chain, extra)
         hit = SweepHit(joint.name)
         start = self._joint_start = self.booleans
         todo: list[tuple[str, str]] = []
         try:
             todo, hit.skipped_rest = self.pairs(joint)
             for a, b in todo:
-                side = self.clear_start(joint, a, b)
-                if side:
-                    hit.contact.append((a, b))
-                    if self._moving_faces_apart(joint, a, b, side):
-                        continue
-                cells, radius = self.orbit_cells(joint, a, b, side)
-                if not len(cells):
-                    continue
-                n = self._sweep_pair(joint, a, b, cells, extra, hit, side)
-                hit.samples = max(hit.samples, n)
-                hit.step_mm = TOL.sweep_step_mm
+                self._sweep_single(joint, a, b, extra, hit)
         except _BudgetSpent as spent:
-            hit.stopped = spent.where
+            _stop(hit, spent)
         hit.booleans = self.booleans - start
         log.debug("sweep %s: %d samples max, %d pairs, %d booleans, worst %.3g mm", joint.name,
                   hit.samples, len(todo), hit.booleans, hit.depth)
         return hit
 
+    def _sweep_single(self, joint: Joint, a: str, b: str, extra: tuple[float, ...], hit: SweepHit,
+                      head: tuple[Joint, float] | None = None) -> None:
+        """One (moved, fixed) pair along ``joint``'s range (moving contact, orbit cells,
+        conservative advancement). With ``head`` = (the head joint, this joint's ratio to it),
+        the joint is one its head drives: poses are labelled and valued by the head too."""
+        side = self.clear_start(joint, a, b)
+        if side:
+            hit.contact.append((a, b))
+            if self._moving_faces_apart(joint, a, b, side):
+                return
+        cells, radius = self.orbit_cells(joint, a, b, side)
+        if not len(cells):
+            return
+        n = self._sweep_pair(joint, a, b, cells, extra, hit, side, head)
+        hit.samples = max(hit.samples, n)
+        hit.step_mm = TOL.sweep_step_mm
+
     def _sweep_pair(self, joint: Joint, a: str, b: str, cells: np.ndarray,
-                    extra: tuple[float, ...], hit: SweepHit, side: int = 0) -> int:
+                    extra: tuple[float, ...], hit: SweepHit, side: int = 0,
+                    head: tuple[Joint, float] | None = None) -> int:
         """Conservative advancement along the range: at each pose every cell's gap to the fixed
         part's cover bounds how far its points may move before they can touch, so the next pose
         is the nearest at which some cell has moved its gap plus ``TOL.sweep_step_mm``, and never
@@ -537,9 +612,15 @@ class SweepScene:
         first = ""  # this pair's first pose whose new depth passes TOL.sim_penetration_mm
         outside = [q for q in extra if q < lo - OVERSHOOT_EPS or q > hi + OVERSHOOT_EPS]
 
+        def name(q: float) -> str:
+            if head is None or head[0].name == joint.name:
+                return label(joint, q)
+            return f"{joint.name} {label(joint, q)} ({head[0].name} {label(head[0], q / head[1])})"
+
         def check(q: float) -> np.ndarray:
             """Check the pose at ``q``; return every cell's gap to the fixed part (mm)."""
             nonlocal crops, first
+            self._tick(lambda: f"{a!r} against {b!r} at {name(q)}")
             m = motion(joint, q)
             dist, _ = tb.query(cells @ m[:3, :3].T + m[:3, 3],
                                distance_upper_bound=reach + ADVANCE_HORIZON_MM)
@@ -548,14 +629,15 @@ class SweepScene:
                 if crops is None:
                     crops = self._crops(joint, a, b, local, rest,
                                         (min([lo, *outside]), max([hi, *outside])), ca.radius, side)
-                self._spend(lambda: f"{a!r} against {b!r} at {label(joint, q)}")
+                self._spend(lambda: f"{a!r} against {b!r} at {name(q)}")
                 o = exact_overlap(a, kernel.located(crops[0], m), b, crops[1])
                 new = o.depth - rest
                 if new > TOL.sim_penetration_mm and not first:
-                    first = label(joint, q)
+                    first = name(q)
                 if new > hit.depth:
                     hit.depth, hit.volume, hit.first_at = new, o.volume, first
-                    hit.pair, hit.at, hit.value = (a, b), label(joint, q), q
+                    hit.pair, hit.at = (a, b), name(q)
+                    hit.value = q if head is None else q / head[1]
                     p = o.point()  # read off the common only for the deepest pose
                     hit.point = [round(float(x), 4) for x in p] if p is not None else []
             return gap
@@ -627,13 +709,14 @@ class SweepScene:
         slide = dataclasses.replace(joint, type=PRISMATIC.name)
         turn = dataclasses.replace(joint, type=(CONTINUOUS if joint.turn_lower is None else REVOLUTE).name,
                                    lower=joint.turn_lower, upper=joint.turn_upper)
-        hits = [self.sweep(slide), self.sweep(turn)]
+        hits = [self._sweep(slide), self._sweep(turn)]
         worst = max(range(2), key=lambda k: hits[k].depth)
         out = dataclasses.replace(hits[worst], joint=joint.name, samples=sum(h.samples for h in hits),
                                   booleans=sum(h.booleans for h in hits),
                                   step_mm=max(h.step_mm for h in hits),
                                   stopped="; ".join(f"{dof}: {h.stopped}" for dof, h in
-                                                    zip(("slide", "turn"), hits) if h.stopped))
+                                                    zip(("slide", "turn"), hits) if h.stopped),
+                                  stopped_by=next((h.stopped_by for h in hits if h.stopped_by), ""))
         if out.pair is not None:
             out.at = f"{('slide', 'turn')[worst]} {out.at}"
         return out
@@ -644,6 +727,7 @@ class SweepScene:
         try:
             todo, hit.skipped_rest = self.pairs(joint)
             for s in samples(joint):
+                self._tick(lambda s=s: f"{joint.name!r} at {s.label}")  # type: ignore[misc]  # s bound now
                 hit.samples += 1
                 for a, b in todo:
                     if not _obb_overlap(self.obb(a, s.motion), self.obb(b, np.eye(4)), TOL.sweep_box_slack_mm):
@@ -653,9 +737,312 @@ class SweepScene:
                     if new > hit.depth:
                         hit.depth, hit.volume, hit.pair, hit.at, hit.value = new, o.volume, (a, b), s.label, s.value
         except _BudgetSpent as spent:
-            hit.stopped = spent.where
+            _stop(hit, spent)
         hit.booleans = self.booleans - start
         return hit
+
+    # --- couplings: a head joint and every joint it drives ---------------------------------
+
+    def _path_joints(self, part: str, moving: dict[str, float]) -> tuple[str, ...]:
+        """The joints of ``moving`` on the path from the root to ``part``'s link, root first."""
+        out: list[str] = []
+        lk = self.art.part_link[part]
+        while (pj := self.art.link(lk).parent_joint) is not None:
+            if pj in moving:
+                out.append(pj)
+            lk = self.art.joint(pj).parent
+        return tuple(reversed(out))
+
+    def _sweep_coupled(self, head: Joint, chain: list[tuple[Joint, float]],
+                       extra: tuple[float, ...]) -> SweepHit:
+        """``head`` swept with every joint of ``chain`` (joint, ratio) at ``ratio * q``: each
+        pair of parts that move differently, as one joint's sweep where their relative motion
+        is one joint's, else :meth:`_sweep_compound` (see the module)."""
+        hit = SweepHit(head.name)
+        start = self._joint_start = self.booleans
+        lo, hi = chain_range(head, chain)
+        ratios = {head.name: 1.0, **{j.name: r for j, r in chain}}
+        meshed = self._meshed(set(ratios))
+        path = {p.name: self._path_joints(p.name, ratios) for p in self.model.parts}
+        names = [p.name for p in self.model.parts]
+        pairs = 0
+        try:
+            for i, a0 in enumerate(names):
+                for b0 in names[i + 1:]:
+                    a, b, pa, pb = a0, b0, path[a0], path[b0]
+                    if pa == pb or frozenset((a, b)) in meshed:
+                        continue
+                    k = 0
+                    while k < min(len(pa), len(pb)) and pa[k] == pb[k]:
+                        k += 1
+                    ra, rb = pa[k:], pb[k:]  # the common part moves both alike
+                    if not ra:
+                        a, b, ra, rb = b, a, rb, ra
+                    if len(ra) == 1 and not rb:  # one joint moves a against b
+                        j = self.art.joint(ra[0])
+                        v = _virtual(j, ratios[j.name], lo, hi)
+                        if not self._may_collide(v, a, b):
+                            continue
+                        pairs += 1
+                        if self.rest(a, b).depth > TOL.sweep_rest_interference_mm:
+                            hit.skipped_rest.append((a, b))
+                        scaled = tuple(ratios[j.name] * e for e in extra)
+                        self._sweep_single(v, a, b, scaled, hit, (head, ratios[j.name]))
+                        continue
+                    moves_a = [(self.art.joint(n), ratios[n]) for n in ra]
+                    moves_b = [(self.art.joint(n), ratios[n]) for n in rb]
+                    if self._sweep_compound(head, (lo, hi), a, moves_a, b, moves_b, extra, hit):
+                        pairs += 1
+        except _BudgetSpent as spent:
+            _stop(hit, spent)
+        hit.booleans = self.booleans - start
+        log.debug("coupled sweep %s (%s) over %.4g..%.4g: %d pairs, %d booleans, worst %.3g mm",
+                  head.name, ", ".join(j.name for j, _ in chain), lo, hi, pairs, hit.booleans,
+                  hit.depth)
+        return hit
+
+    def _whole_cover(self, name: str, drop=None) -> tuple[Cover, cKDTree | None]:
+        """The sphere cover of all of the placed part's faces (without those ``drop`` =
+        (key, filter) leaves out), cached."""
+        key = name if drop is None else f"{name}\0{drop[0]}"
+        if key not in self._whole:
+            if name not in self._faces:
+                self._faces[name] = faces(self.model.part(name).shape())
+            tris, devs, _ = surface(None, meshed=self._faces[name],
+                                    keep=None if drop is None else drop[1])
+            self._whole[key] = _with_tree(cover_of(tris, float(devs.max(initial=0.0)), cell_side(tris)))
+        return self._whole[key]
+
+    def _sweep_compound(self, head: Joint, span: tuple[float, float], a: str,
+                        moves_a: list[tuple[Joint, float]], b: str,
+                        moves_b: list[tuple[Joint, float]], extra: tuple[float, ...],
+                        hit: SweepHit) -> bool:
+        """A pair whose relative motion is more than one joint's (``moves_a``, ``moves_b``:
+        (joint, ratio) from the pair's common ancestor down, root first): at each head value
+        ``q`` in ``span`` ``a`` is posed relative to ``b`` (``M_b(q)^-1 M_a(q)``) and checked
+        like a single joint's pair (covers, oriented boxes, the exact common), advancing by
+        conservative advancement with each cell's speed bounded by :func:`_chain_lever` of both
+        chains. The pair's sweep ends at its first pose whose new interference passes
+        ``TOL.sim_penetration_mm`` (B2 fails there): the deepest pose is not sought, since every
+        pose past it would be an exact boolean one step of the fastest part apart (a collar
+        turning with the screw, against the carriage that creeps along it, 0.04 mm of travel per
+        pose, spent the whole boolean budget). False when the pair cannot meet (their envelopes,
+        :func:`_envelope`, are apart)."""
+        lo, hi = span
+        outside = [q for q in extra if q < lo - OVERSHOOT_EPS or q > hi + OVERSHOOT_EPS]
+        qlo, qhi = min([lo, *outside]), max([hi, *outside])
+        ca_, ra_ = _envelope(self._corners_world(a), moves_a, (qlo, qhi))
+        cb_, rb_ = _envelope(self._corners_world(b), moves_b, (qlo, qhi))
+        if float(np.linalg.norm(ca_ - cb_)) > ra_ + rb_ + TOL.sweep_box_slack_mm:
+            return False
+
+        def rel(q: float) -> np.ndarray:
+            ma, mb = np.eye(4), np.eye(4)
+            for j, r in moves_a:
+                ma = ma @ motion(j, r * q)
+            for j, r in moves_b:
+                mb = mb @ motion(j, r * q)
+            return rigid_inverse(mb) @ ma
+
+        def name(q: float) -> str:
+            return f"{head.name} {label(head, q)}"
+
+        rest = self.rest(a, b).depth
+        drop = _common_line(moves_a + moves_b)
+        side = 0
+        if drop is not None and rest <= TOL.sweep_rest_interference_mm:
+            m0 = rel(qlo)
+            if not _obb_overlap(self.obb(a, m0), self.obb(b, np.eye(4)), TOL.sweep_box_slack_mm):
+                side = 1
+            else:
+                self._spend(lambda: f"{a!r} against {b!r} at {name(qlo)}")
+                pa = self.model.part(a)
+                o = exact_overlap(a, kernel.located(pa.local_shape(), m0 @ pa.placement), b,
+                                  self.model.part(b).shape())
+                side = 1 if o.depth <= TOL.sweep_rest_interference_mm else 0
+        if side:
+            hit.contact.append((a, b))
+        ca, _ = self._whole_cover(a, drop if side else None)
+        cb, tb = self._whole_cover(b, drop if side else None)
+        if not len(ca.centres) or tb is None:
+            return True
+        cells = ca.centres
+        width = max(qhi - qlo, abs(qlo), abs(qhi))
+        lever = _chain_lever(cells, ca.radius, moves_a, width)
+        reach = ca.radius + cb.radius
+        lo_b, hi_b = self._world_box(b)
+        grow = reach + ADVANCE_HORIZON_MM
+        corners_b = _corners(lo_b - grow, hi_b + grow)
+        lever = lever + float(_chain_lever(corners_b, 0.0, moves_b, width).max(initial=0.0))
+        if float(lever.max(initial=0.0)) <= 0.0:
+            return True
+        step = TOL.sweep_step_mm
+        min_adv = max(step / float(lever.max()), (qhi - qlo) / MAX_PAIR_SAMPLES)
+        box_b = self.obb(b, np.eye(4))
+        pa, pb = self.model.part(a), self.model.part(b)
+        first = ""
+
+        def check(q: float) -> np.ndarray:
+            nonlocal first
+            self._tick(lambda: f"{a!r} against {b!r} at {name(q)}")
+            m = rel(q)
+            dist, _ = tb.query(cells @ m[:3, :3].T + m[:3, 3], distance_upper_bound=grow)
+            gap = np.minimum(dist, grow) - reach
+            if (gap <= 0).any() and _obb_overlap(self.obb(a, m), box_b, TOL.sweep_box_slack_mm):
+                self._spend(lambda: f"{a!r} against {b!r} at {name(q)}")
+                o = exact_overlap(a, kernel.located(pa.local_shape(), m @ pa.placement), b, pb.shape())
+                new = o.depth - rest
+                if new > TOL.sim_penetration_mm and not first:
+                    first = name(q)
+                if new > hit.depth:
+                    hit.depth, hit.volume, hit.first_at = new, o.volume, first
+                    hit.pair, hit.at, hit.value = (a, b), name(q), q
+                    p = o.point()
+                    hit.point = [round(float(x), 4) for x in p] if p is not None else []
+            return gap
+
+        for q in outside:
+            check(q)
+        poses, q = len(outside), lo
+        while not first:  # the first pose past the tolerance ends the pair (see above)
+            gap = check(q)
+            poses += 1
+            if q >= hi - 1e-12:
+                break
+            adv = max(float(np.min((np.maximum(gap, 0.0) + step) / lever)), min_adv)
+            q = min(q + adv, hi)
+        hit.samples = max(hit.samples, poses)
+        hit.step_mm = step
+        return True
+
+    def _corners_world(self, name: str) -> np.ndarray:
+        lo, hi = self._world_box(name)
+        return _corners(lo, hi)
+
+    def _world_box(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+        """The placed part's world box at rest (the corners of its local box, placed)."""
+        lo, hi = self._local_box(name)
+        t = self.model.part(name).placement
+        c = _corners(lo, hi) @ t[:3, :3].T + t[:3, 3]
+        return c.min(axis=0), c.max(axis=0)
+
+
+def coupled_chain(art: Articulation, head: Joint) -> list[tuple[Joint, float]]:
+    """Every joint ``head`` drives through couplings (directly or down a chain, not through a
+    linkage) with its ratio: ``q_joint = ratio * q_head`` (SI; offsets are 0, positions count
+    from the compiled pose). Empty for a joint that drives none, or one that is itself driven."""
+    if driven_head(art, head.name) != head.name or not art.couplings:
+        return []
+    out = []
+    for j in art.joints:
+        if j.name == head.name or j.coupling is None or j.coupling.type == "linkage":
+            continue
+        h, ratio, _ = art.root_driver(j.name)
+        if h == head.name and ratio != 0.0:
+            out.append((j, ratio))
+    return out
+
+
+def driven_head(art: Articulation, joint: str) -> str:
+    """The joint whose sweep moves ``joint``: the head of its chain of couplings (itself when
+    no gear, rack, screw or belt coupling drives it)."""
+    return art.root_driver(joint)[0] if art.couplings else joint
+
+
+def chain_range(head: Joint, chain: list[tuple[Joint, float]]) -> tuple[float, float]:
+    """The head's values (SI, from the compiled pose) the coupled sweep covers: its own limits
+    cut to those that keep every driven joint inside its limits; a continuous head without a
+    limited joint in its chain turns until each continuous joint of it has turned once."""
+    lo, hi = (-math.inf, math.inf) if head.kind.endless else (float(head.lower), float(head.upper))  # type: ignore[arg-type]  # a limited joint has limits
+    for j, r in chain:
+        if j.kind.endless or j.lower is None or j.upper is None:
+            continue
+        x, y = float(j.lower) / r, float(j.upper) / r
+        lo, hi = max(lo, min(x, y)), min(hi, max(x, y))
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        turns = [2 * math.pi] + [2 * math.pi / abs(r) for j, r in chain if j.kind.endless]
+        return 0.0, max(turns)
+    return (lo, hi) if hi >= lo else (0.0, 0.0)
+
+
+def _virtual(joint: Joint, ratio: float, lo: float, hi: float) -> Joint:
+    """``joint`` limited to the values it takes while its head runs over ``lo..hi`` (a
+    continuous joint that turns a full turn or more stays continuous)."""
+    a, b = sorted((ratio * lo, ratio * hi))
+    if joint.kind.endless:
+        if b - a >= 2 * math.pi - 1e-9:
+            return joint
+        return dataclasses.replace(joint, type=REVOLUTE.name, lower=a, upper=b)
+    return dataclasses.replace(joint, lower=a, upper=b)
+
+
+def _chain_lever(points: np.ndarray, pad: float, moves: list[tuple[Joint, float]],
+                 width: float) -> np.ndarray:
+    """Per point (world mm at rest, each standing for a ball of radius ``pad``), a bound of how
+    far it moves (mm) per unit of the head's value under the chain ``moves`` ((joint, ratio),
+    root first), for head values at most ``width`` from 0: the sum over the joints of
+    ``|ratio|`` times its lever (1000 mm/m for a slide; for a turn its distance from the axis,
+    grown by how far the joints below may carry it off its rest position)."""
+    lever = np.zeros(len(points))
+    carried = np.full(len(points), float(pad))  # how far the joints below may move each point
+    for j, r in reversed(moves):
+        if j.kind.slides:
+            lever += 1000.0 * abs(r)
+            carried = carried + 1000.0 * abs(r) * width
+        else:
+            q = points - j.frame[:3, 3]
+            u = j.axis
+            dist = np.linalg.norm(q - np.outer(q @ u, u), axis=1) + carried
+            lever += abs(r) * dist
+            carried = carried + np.minimum(2.0 * dist, abs(r) * width * dist)
+    return lever
+
+
+def _envelope(corners: np.ndarray, moves: list[tuple[Joint, float]],
+              span: tuple[float, float]) -> tuple[np.ndarray, float]:
+    """A ball (centre, radius, mm) holding every position of a part with box ``corners`` (world
+    mm at rest) under the chain ``moves`` ((joint, ratio), root first) over the head values in
+    ``span``: from the lowest joint up, the ball's orbit about a turn's axis is held by the ball
+    about the foot of its centre on the axis; a slide stretches it along its axis."""
+    c = corners.mean(axis=0)
+    radius = float(np.linalg.norm(corners - c, axis=1).max())
+    for j, r in reversed(moves):
+        if j.kind.slides:
+            t = sorted((1000.0 * r * span[0], 1000.0 * r * span[1]))
+            c = c + j.axis * (t[0] + t[1]) / 2
+            radius += (t[1] - t[0]) / 2
+        else:
+            o, u = j.frame[:3, 3], j.axis
+            foot = o + float((c - o) @ u) * u
+            radius += float(np.linalg.norm(c - foot))
+            c = foot
+    return c, radius
+
+
+def _common_line(moves: list[tuple[Joint, float]]):
+    """(key, face filter) when every joint of ``moves`` turns about or slides along one line:
+    the faces their motion maps onto themselves are left out (a turn's invariant faces; with a
+    slide too, only those that also lie along it: cylinders about the line); else None."""
+    j0 = moves[0][0]
+    o, u = j0.frame[:3, 3], j0.axis
+    for j, _ in moves:
+        d = j.frame[:3, 3] - o
+        if abs(abs(float(j.axis @ u)) - 1.0) > 1e-9:
+            return None
+        if j.kind.turns and float(np.linalg.norm(d - (d @ u) * u)) > 1e-6:
+            return None
+    slides = any(j.kind.slides for j, _ in moves)
+    turns = any(j.kind.turns for j, _ in moves)
+    if not turns:
+        return None  # slides along parallel lines: a slide, handled as one joint
+    from .cells import invariant_under_rotation, side_of_motion
+
+    def keep(face, ocp) -> bool:
+        if not invariant_under_rotation(face, o, u, ocp):
+            return True
+        return slides and side_of_motion(face, u, ocp) != (False, False)
+    key = np.round(np.concatenate([o, u, [float(slides)]]), 9).tobytes().hex()
+    return key, keep
 
 
 def _with_tree(c: Cover) -> tuple[Cover, cKDTree | None]:
@@ -708,7 +1095,9 @@ def sweep_all(model: CompiledModel, art: Articulation, joints: list[Joint],
               extra: dict[str, tuple[float, ...]] | None = None, *,
               parallel: bool = True) -> tuple[dict[str, SweepHit], int]:
     """``({joint name: its sweep}, exact booleans run)`` of every joint in ``joints``
-    (:meth:`SweepScene.sweep`, with ``extra[name]`` as its MuJoCo overshoot).
+    (:meth:`SweepScene.sweep`, with ``extra[name]`` as its MuJoCo overshoot). A joint that a
+    coupling drives is not swept itself: the head of its chain's sweep moves it, and its entry
+    is an empty :class:`SweepHit` whose ``swept_with`` names that head.
 
     With ``parallel`` and a second core, a forked child (:class:`procedura_brep.limited.
     Limited`) shares the work: both processes take the next joint off one queue (a pipe
@@ -720,8 +1109,13 @@ def sweep_all(model: CompiledModel, art: Articulation, joints: list[Joint],
     import struct
     extra = extra or {}
     scene = SweepScene(model, art)
+    followers = {j.name: SweepHit(j.name, swept_with=driven_head(art, j.name)) for j in joints
+                 if driven_head(art, j.name) != j.name}
+    everything = joints
+    joints = [j for j in joints if j.name not in followers]
     if not parallel or len(joints) < 2 or _cores() < 2:
-        return {j.name: scene.sweep(j, extra=extra.get(j.name, ())) for j in joints}, scene.booleans
+        own = {j.name: scene.sweep(j, extra=extra.get(j.name, ())) for j in joints}
+        return {j.name: own.get(j.name) or followers[j.name] for j in everything}, scene.booleans
     from ..limited import ChildFailure, Limited
     r, w = os.pipe()
     try:
@@ -759,7 +1153,8 @@ def sweep_all(model: CompiledModel, art: Articulation, joints: list[Joint],
     for j in joints:
         if j.name not in hits:
             hits[j.name] = scene.sweep(j, extra=extra.get(j.name, ()))
-    return {j.name: hits[j.name] for j in joints}, booleans + scene.booleans
+    hits.update(followers)
+    return {j.name: hits[j.name] for j in everything}, booleans + scene.booleans
 
 
 def _hit_from(d: dict) -> SweepHit:
