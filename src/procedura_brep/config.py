@@ -146,6 +146,11 @@ class Tolerances:
             axis is the screw's axis, each within this (``gates/coupling.py``).
         coupling_module_rel: coupling gate: a gear's module measured from its tip circle agrees
             with the declared one (rack and pinion) and with its partner's within this fraction.
+        coupling_lead_rel: coupling gate: a lead screw's (and its nut's) thread lead, measured
+            from its helical edges, agrees with the coupling's ``lead`` within this fraction.
+            The measurement is exact to about 1e-6 of the lead on ``lead_screw``; standard
+            leads a typo swaps (2, 2.5, 3, 4, 5, 8 mm; metric pitches 1.25 / 1.5 / 1.75) lie at
+            least 14 % apart.
         coupling_samples: coupling gate: poses over one tooth pitch of the driver (rest
             included) at which a meshing pair's exact common is computed.
         coupling_time_s: coupling gate: the sampled interference check of one model stops
@@ -214,6 +219,7 @@ class Tolerances:
     coupling_cut_mm: float = 0.1
     coupling_centre_mm: float = 0.05
     coupling_module_rel: float = 0.02
+    coupling_lead_rel: float = 0.01
     coupling_samples: int = 7
     coupling_time_s: float = 60.0
 

@@ -22,8 +22,18 @@ checked the mate kinds, the params, and that the axes are parallel or square wit
   through the rack part's origin along the slide: :func:`~procedura_brep.program.gearing.rack`
   puts its origin there) within ``TOL.coupling_centre_mm`` (``coupling-rack``).
 * **screw**: the nut's slide axis (the prismatic mate's frame Z line) is the screw's axis within
-  ``TOL.coupling_centre_mm`` (``coupling-screw``).
-* **belt**: the axes (checked at compile) only.
+  ``TOL.coupling_centre_mm`` (``coupling-screw``). The thread of the screw (the coupling's
+  ``mesh[0]``) is measured from its helical edges (:func:`~.drive_shapes.thread`), and the
+  nut's (``mesh[1]``, about its slide axis) when it has one: a lead off ``lead`` by more than
+  ``TOL.coupling_lead_rel``, or a hand other than ``hand``, is ``coupling-lead``; a screw with
+  no thread (a plain rod) is a ``coupling-unmeasured`` warning.
+* **belt**: each joint's pulley is found by :func:`find_pulley` (the pulleys are far apart: no
+  box test); with ``driver_teeth``/``driven_teeth`` its teeth are counted on its belt seat's
+  outline as a gear's (``coupling-teeth``); with ``driver_diameter``/``driven_diameter`` its
+  pitch diameter (a smooth pulley: the seat's diameter; a timing pulley: from its tips and
+  grooves, see :attr:`Pulley.pitch_diameter`) must be the param within twice
+  ``TOL.coupling_centre_mm`` (``coupling-pulley``); the two seats must overlap along the axes,
+  one plane for the belt (``coupling-belt``).
 
 A meshing pair whose checks pass is then **swept over one tooth pitch** of the driver in
 ``TOL.coupling_samples`` poses (rest first): the driver's part turns (or slides) by the sample,
@@ -31,8 +41,9 @@ the driven part by the coupling's ratio, and their exact OCCT common is computed
 thicker than ``TOL.penetration_slack_mm`` (boolean noise) is a ``coupling-interference`` error
 naming the pair, the depth and the driver's position. The sweep of the whole model stops after
 ``TOL.coupling_time_s``; a pair it did not finish is a ``coupling-not-verified`` warning, never
-a pass. A gear coupling with no toothed pair (plain discs) is a ``coupling-unmeasured`` warning:
-the ratio is then not checked against any geometry.
+a pass. A gear coupling with no toothed pair (plain discs), a belt without its pulleys, a screw
+without a thread is a ``coupling-unmeasured`` warning: the ratio is then not checked against
+that geometry.
 """
 
 from __future__ import annotations
@@ -49,6 +60,7 @@ from ..config import TOL
 from ..findings import Severity
 from ..program.couplings import rigid_groups
 from ..program.model import CompiledCoupling, CompiledMate, CompiledModel, CompiledPart, Finding
+from .drive_shapes import Seat, belt_seat, thread
 from .policy import GateResult, result
 
 #: Points sampled on each edge of a section (tooth flanks are monotonic in radius between
@@ -164,22 +176,28 @@ def level_edges(shape: Any, line: Line) -> dict[float, list[np.ndarray]]:
     return out
 
 
-def teeth_levels(shape: Any, line: Line, *, internal: bool) -> list[tuple[float, Teeth]]:
+def teeth_levels(shape: Any, line: Line, *, internal: bool,
+                 tip: float | None = None) -> list[tuple[float, Teeth]]:
     """Every plane across ``line`` whose outline shows teeth (at least three): its param along
     the line and the teeth read there.
 
     The outline's radius is cut just inside its largest radius (a ring gear: just outside its
-    smallest); every crossing is a tooth flank, so the count is half the crossings."""
+    smallest), or just inside ``tip`` when given (a flanged pulley: the flange's rim lies in
+    the plane of the grooved outline); every crossing is a tooth flank, so the count is half
+    the crossings."""
     out = []
     for level, edges in level_edges(shape, line).items():
         radii = [np.linalg.norm(np.cross(e - line.origin, line.direction), axis=1) for e in edges]
         allr = np.concatenate(radii)
-        tip = float(allr.min() if internal else allr.max())
-        eps = max(1e-4, 1e-5 * tip)
-        cut = tip + eps if internal else tip - eps
+        if tip is not None:
+            levels_tip = tip
+        else:
+            levels_tip = float(allr.min() if internal else allr.max())
+        eps = max(1e-4, 1e-5 * levels_tip)
+        cut = levels_tip + eps if internal else levels_tip - eps
         crossings = sum(int(np.count_nonzero(np.diff(np.sign(r - cut)) != 0)) for r in radii)
         if crossings >= 6:
-            out.append((level, Teeth(crossings // 2, tip, internal)))
+            out.append((level, Teeth(crossings // 2, levels_tip, internal)))
     return out
 
 
@@ -255,6 +273,60 @@ def find_pair(model: CompiledModel, group: dict[str, str], mate_a: CompiledMate,
             if ta is not None and best is None:
                 best = row
     return best
+
+
+#: A timing pulley's tips lie this many belt pitches inside its pitch diameter (the belt's
+#: pitch line): :func:`~procedura_brep.program.gearing.pulley` builds ``od = pd - 0.254 p``
+#: (GT2 at p = 2 mm: 0.254 mm a side). tests/gates/test_coupling_belt_screw.py holds the two
+#: together.
+TIMING_TIP_PER_PITCH: float = 0.254
+
+
+@dataclass(frozen=True)
+class Pulley:
+    """A pulley found for a belt: the part, its joint's axis, its belt seat, its teeth (None:
+    a smooth pulley)."""
+
+    part: CompiledPart
+    line: Line
+    seat: Seat
+    teeth: Teeth | None
+
+    @property
+    def pitch_diameter(self) -> float:
+        """The diameter the belt's pitch line runs on: a smooth seat's own; a timing pulley's
+        from its tips and grooves (``od = pd - k p`` with ``p = pi pd / z``, so
+        ``pd = od / (1 - k pi / z)``, k = :data:`TIMING_TIP_PER_PITCH`)."""
+        if self.teeth is None:
+            return self.seat.diameter
+        return self.seat.diameter / (1 - TIMING_TIP_PER_PITCH * math.pi / self.teeth.count)
+
+
+def find_pulley(model: CompiledModel, group: dict[str, str], mate: CompiledMate, *,
+                toothed: bool) -> Pulley | None:
+    """The pulley turning with ``mate``'s joint. A belt's pulleys are far apart, so their boxes
+    are not asked to meet (as :func:`find_pair` asks of gears); the rule, among the parts that
+    move with the joint (its child and its rigid link): a part is a candidate when its solid is
+    round about the joint's axis (it has a cylindrical face coaxial with it: its belt seat is
+    :func:`~procedura_brep.gates.drive_shapes.belt_seat`); when the belt is typed by teeth
+    (``toothed``) a candidate whose seat outline shows teeth (counted as a gear's, cut just
+    inside the seat radius) wins; then the largest seat radius. None when no part is round
+    about the axis."""
+    line = Line.of(mate.world_frame)
+    best: tuple[tuple[bool, float], Pulley] | None = None
+    for part in _moving(model, group, mate.child):
+        shape = part.shape()
+        seat = belt_seat(shape, line)
+        if seat is None:
+            continue
+        mid = (seat.lo + seat.hi) / 2
+        levels = [lv for lv in teeth_levels(shape, line, internal=False, tip=seat.radius)
+                  if seat.lo - 1e-4 <= lv[0] <= seat.hi + 1e-4]
+        teeth = min(levels, key=lambda lv: abs(lv[0] - mid))[1] if levels else None
+        key = (toothed and teeth is not None, seat.radius)
+        if best is None or key > best[0]:
+            best = (key, Pulley(part, line, seat, teeth))
+    return best[1] if best else None
 
 
 def _sweep(a: CompiledPart, pose_a: Callable[[float], np.ndarray], b: CompiledPart,
@@ -351,23 +423,31 @@ class _Check:
         self._interference(mesh.a, lambda q: la.turn(q), mesh.b, lambda q: lb.turn(c.ratio * q),
                            2 * math.pi / z_drv, "deg", drv.name)
 
-    def _teeth(self, name: str, teeth: Teeth, key: str, declared: float | None, other: str) -> bool:
+    def _teeth(self, name: str, teeth: Teeth, key: str, declared: float | None, other: str,
+               *, where: str = "") -> bool:
         if declared is None or teeth.count == round(declared):
             return True
         param = self.c.inputs.get(key, key)
-        self.fail("coupling-teeth", f"{name} has {teeth.count} teeth (measured on its section "
-                  f"where it meets {other}), but {key} = {param} = {declared:g}: the ratio "
-                  f"{self.c.ratio:.4g} is typed against the teeth; make the param and the gear "
-                  f"agree", part=name, other=other, value=teeth.count, limit=declared)
+        where = where or f"on its section where it meets {other}"
+        noun = "pulley" if self.c.type == "belt" else "gear"
+        self.fail("coupling-teeth", f"{name} has {teeth.count} teeth (measured {where}), but "
+                  f"{key} = {param} = {declared:g}: the ratio {self.c.ratio:.4g} is typed "
+                  f"against the teeth; make the param and the {noun} agree", part=name,
+                  other=other, value=teeth.count, limit=declared)
         return False
 
-    def _unmeasured(self, drv: CompiledMate, dvn: CompiledMate, what: str) -> None:
+    def _unmeasured(self, drv: CompiledMate, dvn: CompiledMate, what: str,
+                    helper: str = "spur_gear / ring_gear / rack") -> None:
+        if self.row.get("measured") is False:
+            return  # said once per coupling
         sides = ", ".join(f"{m.name}: {' '.join(p.name for p in _moving(self.model, self.group, m.child))}"
                           for m in (drv, dvn))
         self.row["measured"] = False
-        self.fail("coupling-unmeasured", f"no toothed pair of {what} found among the parts that "
+        noun = "teeth" if helper != "pulley" else "pulleys"
+        pair = "toothed pair of " if helper != "pulley" else ""
+        self.fail("coupling-unmeasured", f"no {pair}{what} found among the parts that "
                   f"move with the two joints ({sides}); the ratio is not checked against any "
-                  f"teeth (model them with spur_gear / ring_gear / rack)", severity="warning")
+                  f"{noun} (model them with {helper})", severity="warning")
 
     # -- rack and pinion -----------------------------------------------------------------------
     def _rack_pinion(self, drv: CompiledMate, dvn: CompiledMate) -> None:
@@ -425,7 +505,7 @@ class _Check:
             pitch, unit = math.pi * m, "mm"
         self._interference(mesh.a, pose_pinion, rack_part, pose_rack, pitch, unit, drv.name)
 
-    # -- screw and belt ------------------------------------------------------------------------
+    # -- screw -------------------------------------------------------------------------------
     def _screw(self, drv: CompiledMate, dvn: CompiledMate) -> None:
         a, s = Line.of(drv.world_frame), Line.of(dvn.world_frame)
         got = a.distance(s.origin)
@@ -435,6 +515,110 @@ class _Check:
                       f"screw axis of {drv.name} (allowed {TOL.coupling_centre_mm:g} mm): put the "
                       f"nut's slide frame on the screw axis", part=dvn.child, other=drv.child,
                       value=got, limit=TOL.coupling_centre_mm)
+        self._lead(a, s)
+
+    def _lead(self, a: Line, s: Line) -> None:
+        """The lead (and hand) of the screw's thread, and of its nut's when it has one, against
+        ``lead`` and ``hand``; a screw with no thread is unmeasured."""
+        c = self.c
+        lead, hand = c.values.get("lead"), str(c.inputs.get("hand") or "right")
+        screw, nut = (c.mesh + ("", ""))[:2]
+        if lead is None or not screw:
+            return
+        leads: dict[str, float] = {}
+        for name, line, role in ((screw, a, "screw"), (nut, s, "nut")):
+            try:
+                part = self.model.part(name)
+            except KeyError:
+                continue
+            th = thread(part.shape(), line)
+            if th is None:
+                if role == "screw":
+                    self.row["measured"] = False
+                    self.fail("coupling-unmeasured", f"no helical thread found on {name} (the "
+                              f"screw); its lead {lead:g} mm is not checked against any thread "
+                              f"(model it with lead_screw)", part=name, severity="warning")
+                continue
+            leads[name] = round(th.lead, 6)
+            other = nut if role == "screw" else screw
+            param = c.inputs.get("lead", "lead")
+            if abs(th.lead - lead) > TOL.coupling_lead_rel * lead:
+                self.fail("coupling-lead", f"the thread of {name} (the {role}) advances "
+                          f"{th.lead:.4g} mm per turn (measured on its {th.helices} helical "
+                          f"edges), but lead = {param} = {lead:g} mm (allowed "
+                          f"+-{100 * TOL.coupling_lead_rel:g} %): the ratio {c.ratio:.4g} mm/rad "
+                          f"is typed against the lead; make the param and the thread agree",
+                          part=name, other=other, value=th.lead, limit=lead)
+            elif th.hand != hand:
+                self.fail("coupling-lead", f"the thread of {name} (the {role}) is {th.hand}-"
+                          f"handed, but the coupling says hand={hand!r}: the nut would move the "
+                          f"other way; make hand= and the thread agree", part=name, other=other)
+        if leads:
+            self.row["lead_mm"] = leads
+
+    # -- belt --------------------------------------------------------------------------------
+    def _belt(self, drv: CompiledMate, dvn: CompiledMate) -> None:
+        c = self.c
+        by_teeth = "driver_teeth" in c.values
+        kind = "teeth" if by_teeth else "diameter"
+        found = [find_pulley(self.model, self.group, m, toothed=by_teeth) for m in (drv, dvn)]
+        pa, pb = found
+        if pa is None or pb is None:
+            self._unmeasured(drv, dvn, "pulleys round about the joint axes", "pulley")
+            return
+        if pa.part.name == pb.part.name:
+            return  # one part on both joints: the compile's rigid links say so
+        self.row["pair"] = [pa.part.name, pb.part.name]
+        for p, key in ((pa, f"driver_{kind}"), (pb, f"driven_{kind}")):
+            other = (pb if p is pa else pa).part.name
+            declared = c.values.get(key)
+            if by_teeth:
+                if p.teeth is None:
+                    self._unmeasured(drv, dvn, "timing pulleys (toothed)", "pulley")
+                    continue
+                self.row.setdefault("teeth", {})[p.part.name] = p.teeth.count
+                self._teeth(p.part.name, p.teeth, key, declared, other, where="on the outline of its belt seat")
+            elif declared is not None:
+                self._diameter(p, key, declared, other)
+        self._plane(pa, pb)
+
+    def _diameter(self, p: Pulley, key: str, declared: float, other: str) -> None:
+        name, param = p.part.name, self.c.inputs.get(key, key)
+        got = p.pitch_diameter
+        if p.teeth is None:
+            what = (f"a belt seat {got:.4g} mm across (the cylinder its belt runs on"
+                    f"{', between its flanges' if p.seat.flanged else ''})")
+        else:
+            what = (f"{p.teeth.count} grooves and tips {p.seat.diameter:.4g} mm across, so a "
+                    f"pitch diameter of {got:.4g} mm (a timing pulley's tips lie "
+                    f"{TIMING_TIP_PER_PITCH:g} belt pitches inside it, as pulley() builds)")
+        self.row.setdefault("diameter_mm", {})[name] = {"expected": round(declared, 6),
+                                                        "measured": round(got, 6)}
+        allowed = 2 * TOL.coupling_centre_mm
+        if abs(got - declared) > allowed:
+            self.fail("coupling-pulley", f"{name} has {what}, but {key} = {param} = "
+                      f"{declared:g} mm (allowed +-{allowed:g} mm): the ratio {self.c.ratio:.4g} "
+                      f"is typed against the diameters; make the param and the pulley agree",
+                      part=name, other=other, value=got, limit=declared)
+
+    def _plane(self, pa: Pulley, pb: Pulley) -> None:
+        """Both belt seats must overlap along the (parallel) axes: else the belt runs off."""
+        la, lb = pa.line, pb.line
+        sense = 1.0 if float(la.direction @ lb.direction) >= 0 else -1.0
+        shift = float((lb.origin - la.origin) @ la.direction)
+        b_lo, b_hi = sorted((shift + sense * pb.seat.lo, shift + sense * pb.seat.hi))
+        a_lo, a_hi = pa.seat.lo, pa.seat.hi
+        overlap = min(a_hi, b_hi) - max(a_lo, b_lo)
+        self.row["seat_mm"] = {pa.part.name: [round(a_lo, 6), round(a_hi, 6)],
+                               pb.part.name: [round(b_lo, 6), round(b_hi, 6)]}
+        self.row["overlap_mm"] = round(overlap, 6)
+        if overlap <= 1e-6:
+            self.fail("coupling-belt", f"the belt seats of {pa.part.name} ({a_lo:.4g} .. "
+                      f"{a_hi:.4g} mm along the axis of {self.c.driver}) and {pb.part.name} "
+                      f"({b_lo:.4g} .. {b_hi:.4g} mm) do not overlap ({-overlap:.4g} mm apart): "
+                      f"a belt between them would run off; move one pulley along its axis so "
+                      f"both lie in one plane across the axes", part=pb.part.name,
+                      other=pa.part.name, value=overlap, limit=0.0)
 
     # -- the sweep over one pitch ------------------------------------------------------------
     def _interference(self, a: CompiledPart, pose_a: Callable[[float], np.ndarray],
