@@ -848,6 +848,8 @@ class SweepScene:
             return f"{head.name} {label(head, q)}"
 
         rest = self.rest(a, b).depth
+        if rest > TOL.sweep_rest_interference_mm:
+            hit.skipped_rest.append((a, b))
         drop = _common_line(moves_a + moves_b)
         side = 0
         if drop is not None and rest <= TOL.sweep_rest_interference_mm:
