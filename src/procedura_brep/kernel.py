@@ -131,6 +131,17 @@ def bbox(shape: Shape, *, optimal: bool = True) -> tuple[tuple[float, float, flo
     return (lo.X(), lo.Y(), lo.Z()), (hi.X(), hi.Y(), hi.Z())
 
 
+def segment_distance(shape: Shape, p0: np.ndarray, p1: np.ndarray) -> float:
+    """Exact least distance (mm) from the segment ``p0``-``p1`` to ``shape`` (BRepExtrema; inf
+    when OCCT cannot tell)."""
+    from OCP.BRepBuilderAPI import BRepBuilderAPI_MakeEdge
+    from OCP.BRepExtrema import BRepExtrema_DistShapeShape
+    o = _ocp()
+    edge = BRepBuilderAPI_MakeEdge(o["gp"].gp_Pnt(*map(float, p0)), o["gp"].gp_Pnt(*map(float, p1))).Edge()
+    ext = BRepExtrema_DistShapeShape(edge, shape)
+    return float(ext.Value()) if ext.IsDone() else float("inf")
+
+
 def solids(shape: Shape) -> list[Shape]:
     """The solids of ``shape`` (a compound, a solid ...), in explorer order; empty if none."""
     from OCP.TopAbs import TopAbs_SOLID

@@ -68,7 +68,9 @@ def test_the_stop_beyond_the_travel_passes(screws, tmp_path):
     report = run_battery(screws[STOP_BEYOND], out_dir=tmp_path, checks=["B2"], frames=False)
     b2 = report.check("B2")
     assert b2.passed and b2.status == "pass", b2.message
-    assert b2.measured["joints"]["screw_hub"]["contact_pairs"]  # the block was swept past the stop
+    # nothing needed a pose: the block's travel ends short of the stop, and the block (20 mm
+    # and more from the screw axis) never meets the screw (5 mm at most) as both move
+    assert "samples_why" in b2.measured["joints"]["screw_hub"], b2.measured["joints"]["screw_hub"]
 
 
 def test_a_collar_on_the_screw_meets_the_carriage_as_both_move(worker):
@@ -109,7 +111,7 @@ def test_an_arm_on_the_driven_gear_hits_a_post_only_within_the_coupled_range(wor
 
 
 @pytest.mark.parametrize("stop_x", [STOP_IN_PATH, STOP_BEYOND])
-def test_a_sweep_past_its_time_bound_is_not_verified(screws, stop_x, monkeypatch, tmp_path):
+def test_a_sweep_past_its_time_bound_is_not_verified(screws, stop_x, monkeypatch, tmp_path, worker):
     """With a time bound that every sweep outlasts, B2 neither fails the stop in the path nor
     passes the clear model: both are *not verified*, naming the bound and its config key."""
     from procedura_brep.sim import battery, sweep
@@ -117,7 +119,11 @@ def test_a_sweep_past_its_time_bound_is_not_verified(screws, stop_x, monkeypatch
     tiny = dataclasses.replace(TOL, sweep_time_s=0.0)
     monkeypatch.setattr(sweep, "TOL", tiny)
     monkeypatch.setattr(battery, "TOL", tiny)
-    report = run_battery(screws[stop_x], out_dir=tmp_path, checks=["B2"], frames=False)
+    # the clear model with a collar on the screw beyond the carriage's travel: its pair with the
+    # carriage needs poses (the block alone never comes near anything: prefilters rule it out)
+    model = screws[stop_x] if stop_x == STOP_IN_PATH else _compile(
+        screw_program(stop_x, collar_z=160.0), worker)
+    report = run_battery(model, out_dir=tmp_path, checks=["B2"], frames=False)
     b2 = report.check("B2")
     assert b2.status == "not verified" and not report.verified, b2.message
     assert "joint 'screw_hub': the exact sweep ran past its bound of 0 s" in b2.unverified
@@ -127,3 +133,46 @@ def test_a_sweep_past_its_time_bound_is_not_verified(screws, stop_x, monkeypatch
     (f,) = [f for f in failures(report) if f.code == "not-verified"]
     assert f.severity == "warning"
     assert not [f for f in failures(report) if f.code == "battery-B2"]
+
+
+def _sleeved(stop_x: float) -> str:
+    """The lead screw program with a real (left-hand) thread on the screw and a sleeve bolted
+    to the carriage's front around it, 1 mm clear of the thread's crest: a part on the sliding
+    carriage against the turning screw whose helical faces no turn or slide maps onto
+    themselves."""
+    src = screw_program(stop_x).replace("screw_lead = 4.0", "screw_lead = 3.0")  # a third of 10 at most
+    src = src.replace(
+        "    return Cylinder(screw_d / 2, screw_l, align=(Align.CENTER, Align.CENTER, Align.MIN))",
+        '    return make_lead_screw(screw_d, screw_lead, screw_l, hand="left")')
+    src = src.replace('frames("carriage", slide=Location((0, 0, 0), (0, 90, 0)),',
+                      'frames("carriage", slide=Location((0, 0, 0), (0, 90, 0)), '
+                      'front=Location((10, 0, 0), (0, 90, 0)),')
+    src = src.replace("# === frames ===", '''@part(detail="sub", material="steel", description="sleeve on the carriage's front, clear of the screw")
+def sleeve():
+    return Cylinder(12, 30, align=(Align.CENTER, Align.CENTER, Align.MIN)) - Cylinder(screw_d / 2 + 1, 30, align=(Align.CENTER, Align.CENTER, Align.MIN))
+
+# === frames ===
+frames("sleeve", seat=Location((0, 0, 0)))''')
+    src = src.replace('couple("carriage_slide"', 'mate("sleeve.seat", "carriage.front", "seat_face", '
+                      'nominal="guide_w", features=False)\ncouple("carriage_slide"')
+    assert src.count("sleeve") >= 4 and "make_lead_screw" in src
+    return src
+
+
+def test_a_sleeve_clear_of_the_thread_costs_no_boolean(worker):
+    """The sleeve lies wholly outside a cylinder about the screw axis that the thread lies
+    wholly inside: the screw motion of the pair keeps every distance from that axis, so the
+    radial prefilter (:meth:`SweepScene.radially_apart`) rules the pair out before any pose; a
+    thread's boolean costs about a second, and the carriage travels 100 mm."""
+    model = _compile(_sleeved(STOP_BEYOND), worker)
+    # the carriage's bore holds the thread: it is the nut, not the smaller sleeve around it
+    assert [c.mesh for c in model.couplings] == [("screw", "carriage")]
+    art = articulate(model)
+    scene = SweepScene(model, art)
+    axis = art.joint("screw_hub")
+    assert scene.radially_apart("sleeve", "screw", axis.frame[:3, 3], axis.axis)
+    assert not scene.radially_apart("carriage", "screw", axis.frame[:3, 3], axis.axis)  # its bore holds it
+    hit = scene.sweep(axis)
+    assert hit.pair is None and not hit.stopped, hit
+    assert ("sleeve", "screw") not in hit.contact and ("screw", "sleeve") not in hit.contact
+    assert hit.booleans <= 2, hit.booleans

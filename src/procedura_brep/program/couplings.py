@@ -404,9 +404,10 @@ def rigid_groups(model: CompiledModel) -> dict[str, str]:
 
 def _nut(model: CompiledModel, side: str, screw: CompiledMate) -> str:
     """The part that engages the screw on the nut's side: of the parts rigid with ``side``
-    (the slide's moving or fixed part), those whose box the screw axis passes through within
-    the screw's own span along it, the smallest (a nut bolted in a carriage, not the carriage
-    the screw passes through); ``side`` itself when no part qualifies."""
+    (the slide's moving or fixed part) whose box the screw axis passes through within the
+    screw's own span, the one that comes nearest the axis there (exact distance: a nut's
+    thread reaches inside the screw's crest, a carriage's clearance bore or a sleeve stays
+    outside it), the smaller on a tie; ``side`` itself when no part qualifies."""
     from .. import kernel
 
     group = rigid_groups(model)
@@ -418,18 +419,26 @@ def _nut(model: CompiledModel, side: str, screw: CompiledMate) -> str:
     except KeyError:
         return side
     s_span = _line_span(s_lo, s_hi, origin, axis)
-    best: tuple[float, str] | None = None
+    if s_span is None:
+        return side
+    found: list[tuple[str, tuple[float, float], float]] = []
     for p in model.parts:
         if p.block_of or p.name == screw.child or group.get(p.name) != group.get(side):
             continue
         lo, hi = (np.asarray(x, float) for x in kernel.bbox(p.shape(), optimal=False))
         span = _line_span(lo, hi, origin, axis)
-        if span is None or s_span is None or span[1] < s_span[0] or s_span[1] < span[0]:
+        if span is None or span[1] < s_span[0] or s_span[1] < span[0]:
             continue
-        size = float(np.prod(np.maximum(hi - lo, 1e-9)))
-        if best is None or size < best[0]:
-            best = (size, p.name)
-    return best[1] if best else side
+        found.append((p.name, (max(span[0], s_span[0]), min(span[1], s_span[1])),
+                      float(np.prod(np.maximum(hi - lo, 1e-9)))))
+    if len(found) < 2:
+        return found[0][0] if found else side
+
+    def near(row: tuple[str, tuple[float, float], float]) -> tuple[float, float]:
+        t0, t1 = row[1]
+        gap = kernel.segment_distance(model.part(row[0]).shape(), origin + t0 * axis, origin + t1 * axis)
+        return round(gap, 6), row[2]
+    return min(found, key=near)[0]
 
 
 def _line_span(lo: np.ndarray, hi: np.ndarray, origin: np.ndarray, d: np.ndarray

@@ -89,7 +89,18 @@ from ..gates.geometry import box_pairs
 from ..mates.kinds import CONTINUOUS, PRISMATIC, REVOLUTE, Motion
 from ..mates.placement import motion_delta, rigid_inverse, rot_x, rot_z, trans
 from ..program.model import CompiledModel
-from .cells import Cover, Face, cell_side, cover_of, cover_radius, faces, faces_along, surface
+from .cells import (
+    Cover,
+    Face,
+    cell_side,
+    cover_of,
+    cover_radius,
+    faces,
+    faces_along,
+    radial_apart,
+    radial_range,
+    surface,
+)
 from .contact import Overlap, exact_overlap
 
 log = logging.getLogger(__name__)
@@ -272,6 +283,7 @@ class SweepScene:
         self._faces: dict[str, list[Face]] = {}  # each part's meshed faces, read once
         self._pair_near: dict[tuple, tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]] = {}
         self._whole: dict[str, tuple[Cover, cKDTree | None]] = {}  # compound pairs' covers
+        self._radii: dict[tuple[str, bytes], tuple[float, float]] = {}  # radial ranges by line
         self.booleans = 0
         self._joint_start = 0  # self.booleans when the current joint's sweep began
         self._deadline = math.inf  # time.monotonic() past which the current joint's sweep stops
@@ -426,8 +438,29 @@ class SweepScene:
         preserves overlap by less than ``TOL.sim_penetration_mm``."""
         if not self._may_meet(joint, a, b, rigid_inverse(joint.frame)):
             return False
+        if not joint.kind.ball and self.radially_apart(a, b, joint.frame[:3, 3], joint.axis):
+            return False
         dirs = [d / np.linalg.norm(d) for d in self._invariant_dirs(joint)]
         return not any(_slab_gap(self.extent(a, d), self.extent(b, d)) for d in dirs)
+
+    def radially_apart(self, a: str, b: str, point: np.ndarray, axis: np.ndarray) -> bool:
+        """Whether one of the parts lies wholly inside a cylinder about the line (``point``,
+        ``axis``) that the other lies wholly outside (:func:`.cells.radial_range`, conservative):
+        a turn about that line, a slide along it, or both keep every point's distance from it,
+        so such a pair never meets (a screw in a carriage's clearance bore, a shaft in the bore
+        of a hub it does not touch: threads make each of their booleans cost seconds)."""
+        u = np.asarray(axis, float) / float(np.linalg.norm(axis))
+        p = np.asarray(point, float) - float(np.asarray(point, float) @ u) * u  # canonical point
+        key = np.round(np.concatenate([p, u]), 9).tobytes()
+        return radial_apart(self._radial(a, key, p, u), self._radial(b, key, p, u))
+
+    def _radial(self, name: str, key: bytes, p: np.ndarray, u: np.ndarray) -> tuple[float, float]:
+        if (name, key) not in self._radii:
+            if name not in self._faces:
+                self._faces[name] = faces(self.model.part(name).shape())
+            tris, devs, _ = surface(None, meshed=self._faces[name])
+            self._radii[(name, key)] = radial_range(tris, devs, p, u)
+        return self._radii[(name, key)]
 
     def _near(self, joint: Joint, a: str, b: str, side: int) -> tuple[tuple[np.ndarray, ...],
                                                                        tuple[np.ndarray, ...]]:
@@ -835,6 +868,9 @@ class SweepScene:
         cb_, rb_ = _envelope(self._corners_world(b), moves_b, (qlo, qhi))
         if float(np.linalg.norm(ca_ - cb_)) > ra_ + rb_ + TOL.sweep_box_slack_mm:
             return False
+        line = _one_line(moves_a + moves_b)
+        if line is not None and self.radially_apart(a, b, *line):
+            return False
 
         def rel(q: float) -> np.ndarray:
             ma, mb = np.eye(4), np.eye(4)
@@ -1019,6 +1055,24 @@ def _envelope(corners: np.ndarray, moves: list[tuple[Joint, float]],
             radius += float(np.linalg.norm(c - foot))
             c = foot
     return c, radius
+
+
+def _one_line(moves: list[tuple[Joint, float]]) -> tuple[np.ndarray, np.ndarray] | None:
+    """(a point, the unit direction) of the line every joint of ``moves`` turns about or slides
+    along (a slide along any parallel line keeps distances from it), else None."""
+    j0 = moves[0][0]
+    o, u = j0.frame[:3, 3], j0.axis / float(np.linalg.norm(j0.axis))
+    turning = [j for j, _ in moves if j.kind.turns]
+    if turning:
+        o = turning[0].frame[:3, 3]
+        u = turning[0].axis / float(np.linalg.norm(turning[0].axis))
+    for j, _ in moves:
+        if j.kind.ball or abs(abs(float(j.axis @ u)) / float(np.linalg.norm(j.axis)) - 1.0) > 1e-9:
+            return None
+        d = j.frame[:3, 3] - o
+        if j.kind.turns and float(np.linalg.norm(d - (d @ u) * u)) > 1e-6:
+            return None
+    return o, u
 
 
 def _common_line(moves: list[tuple[Joint, float]]):
