@@ -24,6 +24,11 @@ Cost is kept down by prefilters, all conservative for the thickness measure:
   joint; the two cross-axis directions of a prismatic one) overlap by less than
   ``TOL.sim_penetration_mm`` is skipped for the whole sweep: any common solid then lies in a slab
   thinner than the tolerance, and a solid inside a slab of thickness t has ``2 V / S <= t``;
+* a pair is skipped when one part lies wholly inside a cylinder about the joint's line (a
+  slide's: the line through its frame along its travel) that the other lies wholly outside
+  (:meth:`SweepScene.radially_apart`: tessellation radii widened by their deviation): every
+  motion about or along that line keeps each point's distance from it (a thread inside a
+  clearance bore, whose every boolean costs seconds, costs none);
 * only the moved part's surface cells (:mod:`.cells`) whose orbit (radius and height about a
   revolute axis, cross-axis position for a prismatic one) passes near the fixed part's cells
   count, and they alone set the sample spacing;
