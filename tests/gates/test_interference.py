@@ -353,3 +353,33 @@ def test_check_says_not_verified_on_its_last_line(monkeypatch, capsys):
     print_check(report.as_dict())
     last = capsys.readouterr().out.strip().splitlines()[-1]
     assert "not verified" in last and "all gates pass" not in last
+
+
+def test_a_long_many_faced_part_is_cropped_to_where_it_meets_and_the_common_is_the_same(monkeypatch):
+    """Within the pair budget, a part of many faces reaching far beyond where it can meet the
+    other (a long finned bar through a small block) is cropped to that region first (a threaded
+    lead screw against its nut: 50 s whole, 20 s cropped); the common is the same solid."""
+    from build123d import Box, Pos
+
+    from procedura_brep.gates import common as common_mod
+    from procedura_brep.gates.geometry import clear_caches, part_geometry
+    from procedura_brep.testing.models import cpart
+
+    bar = Box(400, 10, 10)
+    for k in range(40):  # 40 fins along the bar: 200+ faces
+        bar += Pos(-195 + 10 * k, 0, 7) * Box(2, 10, 4)
+    bar_p, block_p = cpart("bar", bar), cpart("block", Pos(100, 0, 0) * Box(12, 30, 30))
+    ga, gb = part_geometry(bar_p), part_geometry(block_p)
+    assert common_mod.face_count(ga) >= common_mod.TRIM_FACES
+    assert common_mod.face_pairs(common_mod.face_boxes(ga), common_mod.face_boxes(gb)) <= TOL.boolean_pair_budget
+    crops = []
+    real_crop = common_mod.crop
+    monkeypatch.setattr(common_mod, "crop", lambda s, lo, hi: crops.append(hi - lo) or real_crop(s, lo, hi))
+    clear_caches()
+    cropped = common_mod.common(ga, bar_p.shape(), gb, block_p.shape())
+    assert len(crops) == 1 and crops[0][0] < 20  # the bar alone, to the block's 12 mm
+    whole = common_mod.exact_common(bar_p.shape(), block_p.shape())
+    assert cropped.exact and len(cropped.solids) == len(whole) >= 1
+    assert sum(s.volume for s in cropped.solids) == pytest.approx(sum(s.volume for s in whole), rel=1e-9)
+    assert max(s.depth(None) for s in cropped.solids) == pytest.approx(max(s.depth(None) for s in whole), rel=1e-6)
+    clear_caches()
