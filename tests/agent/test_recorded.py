@@ -1,7 +1,7 @@
 """The recorded staged runs replay through today's pipeline and ship (issue 23.7): every part
 committed, every gate and the MuJoCo battery passing and verified, every part modelled around its
 own origin (no part-origin finding) and placed by the solver (no part but the root at the
-identity). Each tape was recorded through ``exchange:`` with an external coding agent playing
+identity); the linear stage's lead screw drives its carriage through a coupling (issue 27). Each tape was recorded through ``exchange:`` with an external coding agent playing
 the model, through every stage."""
 
 from __future__ import annotations
@@ -96,3 +96,24 @@ def test_the_recorded_excavator_holds_its_boom_stick_and_bucket_and_ships(tmp_pa
     assert b1["boom_pivot"]["gravity_torque_Nm"] > 1.0  # a real load, held
     assert all(j["drift_deg"] < 1.0 for j in b1.values())
     assert report["usage"]["total"]["calls"] == 42
+
+
+STAGE = TAPES / "linear_stage_staged.jsonl"
+
+
+@pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
+@pytest.mark.timeout(1800)  # 834 s here beside a CI run: every exact test of a real thread is slow
+def test_the_recorded_linear_stage_drives_its_carriage_by_the_lead_screw_and_ships(tmp_path):
+    """Issue 27: a machine with a lead-screw drive, planned and built by the model with
+    ``couple(..., "screw", ...)``: the screw's turn drives the carriage (the nut bolted to it is
+    the meshing part), B2 sweeps the carriage with its screw, and B8 measures the ratio."""
+    report = _ships(STAGE, tmp_path / "linear_stage", 16)
+    (c,) = json.loads((tmp_path / "linear_stage" / "mates.json").read_text())["couplings"]
+    assert c["type"] == "screw" and c["driver"] == "lead_screw_turn" and c["driven"] == "carriage_slide"
+    assert c["mesh"] == ["lead_screw", "lead_nut"]
+    lead = 2.0  # mm per turn, the program's screw_lead
+    assert abs(c["ratio"]) == pytest.approx(lead / (2 * np.pi), rel=1e-9)
+    b8 = next(x for x in report["battery"]["checks"] if x["id"] == "B8")
+    assert b8["status"] == "pass"
+    assert _joints(report)["carriage_slide"]["swept_with"] == "lead_screw_turn"
+    assert report["usage"]["total"]["calls"] == 32
