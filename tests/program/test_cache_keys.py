@@ -173,3 +173,23 @@ def test_material_declarations_keep_per_part_keys(w):
     compiled(src, worker=w)
     assert rebuilt(compiled(helpers(src, "def unused():\n    return 1\n\n"), worker=w)) == set()
     assert rebuilt(compiled(set_params(src, {"pin_d": 9.0}), worker=w)) == {"post", "arm"}
+
+
+def test_a_helper_bound_to_a_library_function_by_default_keeps_its_cache(w):
+    """``def t(..., maker=lead_screw)`` binds a transmission helper where a part of the same
+    name cannot hide it (a recorded linear stage did): library code, covered by the engine
+    digest, so the part keeps its cache (it rebuilt a 22 s thread on every step); a default
+    that is a program object (a list built at module level) still gets no key."""
+    src = helpers(LAMP, "def sized(x, maker=Cylinder, rounder=math.floor):\n"
+                        "    return maker(rounder(x) / 2, post_h, align=(Align.CENTER, Align.CENTER, Align.MIN))\n\n")
+    src = src.replace("    p = Cylinder(post_d / 2, post_h, align=(Align.CENTER, Align.CENTER, Align.MIN))",
+                      "    p = sized(post_d)")
+    assert "p = sized(post_d)" in src
+    compiled(src, worker=w)
+    again = compiled(src, worker=w)
+    assert rebuilt(again) == set() and again.timings["cache_hits"] == 3
+    assert rebuilt(compiled(src.replace("rounder=math.floor", "rounder=math.ceil"), worker=w)) == {"post"}
+    opaque = src.replace("def sized(x, maker=Cylinder, rounder=math.floor):",
+                         "SHAPES = [Cylinder]\n\ndef sized(x, maker=SHAPES, rounder=math.floor):\n    maker = maker[0]")
+    compiled(opaque, worker=w)
+    assert "post" in rebuilt(compiled(opaque, worker=w))  # no key: rebuilt on every compile

@@ -26,7 +26,9 @@ Where the key cannot see what a part may depend on, it is conservative, never st
 
 * a part that reads a module-level object that is not a plain value (``ARM = [Box(...)]``,
   a function with such a default, an instance) gets the empty key: it is rebuilt on every
-  compile and never stored (a part could change such an object while it runs);
+  compile and never stored (a part could change such an object while it runs); a default or
+  closure value that is library code the program API binds (``maker=lead_screw``,
+  ``rounder=math.floor``) is hashed by its name, the engine digest covering its code;
 * module-level code acts on parts through the values it binds (hashed where a part reads
   them); a statement that runs only for its side effect is what a key cannot see. Anything
   but imports, ``def``/``class``, assignments to names, string literals, the declaration
@@ -325,11 +327,39 @@ def _state_values(fn: Any) -> tuple[Any, ...]:
 def function_state(fn: Any, out: list[str]) -> bool:
     """Hash a program function's default arguments and closure cells (evaluated when it was
     defined, so not visible in its source); False when one is not a plain value."""
-    state = list(_state_values(fn))
-    if not all(plain(v) for v in state):
+    shown = _shown(_state_values(fn))
+    if shown is None:
         return False
-    out.append(f"state {state!r}")
+    out.append(f"state {shown}")
     return True
+
+
+def _shown(value: Any) -> str | None:
+    """How a key hashes a default or closure value: ``repr`` of a plain one, ``lib NAME`` of
+    library code (:func:`_library_value`), tuples and dicts of those item by item; None for
+    anything else (the part then gets no key)."""
+    if plain(value):
+        return repr(value)
+    if isinstance(value, tuple):
+        items = [_shown(v) for v in value]
+        return None if None in items else f"({', '.join(items)})"  # type: ignore[arg-type]
+    if isinstance(value, dict):
+        pairs = [(repr(k), _shown(v)) for k, v in value.items()]
+        return None if any(v is None for _, v in pairs) else "{" + ", ".join(f"{k}: {v}" for k, v in pairs) + "}"
+    return _library_value(value)
+
+
+def _library_value(value: Any) -> str | None:
+    """``lib NAME`` when ``value`` is what the program API (build123d, the gearing helpers, the
+    declarations) or ``math`` binds to NAME: library code, which :func:`engine_digest` covers
+    (a helper bound as a default, ``maker=lead_screw``, so that a part of the same name cannot
+    hide it); else None."""
+    name = getattr(value, "__name__", None)
+    if not isinstance(name, str) or name.startswith("_"):
+        return None
+    if getattr(math, name, _MISSING) is value or _api_object(name) is value:
+        return f"lib {name}"
+    return None
 
 
 def _decl_options(decl: PartDecl) -> str:
