@@ -265,3 +265,6 @@ def test_a_coupled_joint_gets_no_drive_and_the_evidence_lists_couplings(worker):
         parse_articulation(json.dumps({"joints": [{"mate": "wheel_hub", "drive": "position"}]}), model)
     text = evidence_text(model, {"parts": {}, "contacts": []}, None)
     assert "## Couplings" in text and "- wheel_hub follows pinion_hub: gear, ratio -0.333333" in text
+    # a recorded model gave a lead screw limits of +-29700 deg to match its carriage's travel,
+    # which the mate vocabulary refuses: the request says how to plan a multi-turn driver
+    assert "a lead screw, turns continuously (limits null, drive velocity)" in " ".join(text.split())

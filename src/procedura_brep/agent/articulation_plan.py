@@ -259,7 +259,10 @@ def evidence_text(model: CompiledModel, evidence: dict[str, Any], art: Articulat
     couplings = list(model.couplings)
     if couplings:
         rows.append("## Couplings (a driven joint follows its driver: plan limits for both, a "
-                    "drive for the driver only)")
+                    "drive for the driver only; a revolute's limits lie within [-360, 360] deg, "
+                    "so a driver that turns more than a turn over its follower's range, a lead "
+                    "screw, turns continuously (limits null, drive velocity) and its follower's "
+                    "limits bound it)")
         rows += [f"- {c.driven} follows {c.driver}: {c.type}, ratio {c.ratio:.6g}" for c in couplings]
     if art is not None:
         rows.append("## Links and joints now")
