@@ -102,7 +102,7 @@ STAGE = TAPES / "linear_stage_staged.jsonl"
 
 
 @pytest.mark.slow  # over 3 s here: not in the fast lane (pytest -m "not slow")
-@pytest.mark.timeout(1800)  # 834 s here beside a CI run: every exact test of a real thread is slow
+@pytest.mark.timeout(1200)  # 215 s here (834 s beside a CI run before 46c566e/a92b6ba): threads are slow
 def test_the_recorded_linear_stage_drives_its_carriage_by_the_lead_screw_and_ships(tmp_path):
     """Issue 27: a machine with a lead-screw drive, planned and built by the model with
     ``couple(..., "screw", ...)``: the screw's turn drives the carriage (the nut bolted to it is
