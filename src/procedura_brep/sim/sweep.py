@@ -443,10 +443,11 @@ class SweepScene:
         preserves overlap by less than ``TOL.sim_penetration_mm``."""
         if not self._may_meet(joint, a, b, rigid_inverse(joint.frame)):
             return False
-        if not joint.kind.ball and self.radially_apart(a, b, joint.frame[:3, 3], joint.axis):
-            return False
         dirs = [d / np.linalg.norm(d) for d in self._invariant_dirs(joint)]
-        return not any(_slab_gap(self.extent(a, d), self.extent(b, d)) for d in dirs)
+        if any(_slab_gap(self.extent(a, d), self.extent(b, d)) for d in dirs):
+            return False
+        # last: it reads every triangle of both parts
+        return joint.kind.ball or not self.radially_apart(a, b, joint.frame[:3, 3], joint.axis)
 
     def radially_apart(self, a: str, b: str, point: np.ndarray, axis: np.ndarray) -> bool:
         """Whether one of the parts lies wholly inside a cylinder about the line (``point``,
