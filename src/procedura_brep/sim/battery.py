@@ -282,7 +282,7 @@ def _why_no_samples(row: dict[str, Any], hit: SweepHit) -> None:
     """Say in ``row`` (``samples_why``) why the exact sweep ``hit`` ran no pose: nothing of the
     moved subtree can come within reach of a fixed part along the range."""
     if hit.samples == 0 and not hit.stopped:
-        row["samples_why"] = ("no pose needed an exact check: the envelope, extent and surface-"
+        row["samples_why"] = ("no pose needed an exact check: the envelope, extent, radial and surface-"
                               "cell prefilters ruled out every (moved, fixed) part pair, so no "
                               "moved part comes within reach of a fixed one along the range")
 
