@@ -353,33 +353,16 @@ def joint_limits(mate: CompiledMate) -> tuple[JointType, float | None, float | N
 
 
 def _groups(model: CompiledModel) -> dict[str, str]:
-    """Union-find over static mates: part name -> link name (first part of its group)."""
-    order = {p.name: i for i, p in enumerate(model.parts)}
-    parent = {p.name: p.name for p in model.parts}
-
-    def find(x: str) -> str:
-        while parent[x] != x:
-            parent[x] = parent[parent[x]]
-            x = parent[x]
-        return x
-
+    """Part name -> link name (first part of its group): static mates joined by
+    :func:`procedura_brep.program.couplings.rigid_groups`, once every mate names a known part."""
+    from ..program.couplings import rigid_groups
+    names = {p.name for p in model.parts}
     for m in model.mates:
-        if m.kind != "static":
-            continue
-        for end in (m.child, m.parent):
-            if end not in parent:
-                raise ArticulationError(f"mate {m.name!r} names unknown part {end!r}")
-        a, b = find(m.child), find(m.parent)
-        if a != b:
-            keep, drop = (a, b) if order[a] < order[b] else (b, a)
-            parent[drop] = keep
-    for p in model.parts:  # a colour block rides in its painted part's link
-        if p.block_of and p.block_of in parent:
-            a, b = find(p.name), find(p.block_of)
-            if a != b:
-                keep, drop = (a, b) if order[a] < order[b] else (b, a)
-                parent[drop] = keep
-    return {p: find(p) for p in parent}
+        if m.kind == "static":
+            for end in (m.child, m.parent):
+                if end not in names:
+                    raise ArticulationError(f"mate {m.name!r} names unknown part {end!r}")
+    return rigid_groups(model)
 
 
 def articulate(model: CompiledModel, *, evidence: dict[str, Any] | None = None) -> Articulation:

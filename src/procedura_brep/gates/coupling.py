@@ -118,12 +118,6 @@ class Teeth:
         return 2.0 * self.tip_r / (self.count + (-2 if self.internal else 2))
 
 
-def links(model: CompiledModel) -> dict[str, str]:
-    """Part name -> the name of its rigid link's first part (parts joined by static mates; a
-    colour block goes with its painted part)."""
-    return rigid_groups(model)
-
-
 def _moving(model: CompiledModel, group: dict[str, str], part: str) -> list[CompiledPart]:
     """The parts (not colour blocks) of ``part``'s link, plan order."""
     g = group.get(part)
@@ -660,7 +654,7 @@ def coupling_gate(model: CompiledModel) -> tuple[list[Finding], GateResult]:
     """Run the coupling gate; ``measured["couplings"]`` has one row per coupling (its pair,
     teeth, modules, expected and measured centre distance or pitch line, and the sweep)."""
     deadline = time.monotonic() + TOL.coupling_time_s
-    group = links(model) if model.couplings else {}
+    group = rigid_groups(model) if model.couplings else {}
     findings: list[Finding] = []
     rows: dict[str, Any] = {}
     for c in model.couplings:

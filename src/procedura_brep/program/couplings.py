@@ -372,7 +372,8 @@ def _screw(d: CoupleDecl, driven: CompiledMate, driver: CompiledMate, v: dict[st
         names = [p.name for p in model.parts if not p.block_of]
         if named not in names:
             raise _Refusal(f"nut={named!r} is not a part{did_you_mean(named, names)}")
-        if rigid_groups(model).get(named) != rigid_groups(model).get(side):
+        group = rigid_groups(model)
+        if group.get(named) != group.get(side):
             raise _Refusal(f"nut={named!r} does not move with {side} (the nut side of {driven.name})")
         nut = named
     else:
@@ -381,8 +382,11 @@ def _screw(d: CoupleDecl, driven: CompiledMate, driver: CompiledMate, v: dict[st
 
 
 def rigid_groups(model: CompiledModel) -> dict[str, str]:
-    """Part name -> the name of its rigid group's first part (parts joined by static mates; a
-    colour block goes with its painted part)."""
+    """Part name -> the first part, in plan order, of its rigid group: parts joined by static
+    mates (union-find), a colour block with its painted part. The links of
+    :func:`procedura_brep.articulation.articulate`; mates naming unknown parts are skipped here
+    (the articulation refuses them)."""
+    order = {p.name: i for i, p in enumerate(model.parts)}
     root = {p.name: p.name for p in model.parts}
 
     def find(n: str) -> str:
@@ -391,14 +395,18 @@ def rigid_groups(model: CompiledModel) -> dict[str, str]:
             n = root[n]
         return n
 
+    def join(x: str, y: str) -> None:
+        a, b = find(x), find(y)
+        if a != b:
+            keep, drop = (a, b) if order[a] < order[b] else (b, a)
+            root[drop] = keep
+
     for m in model.mates:
         if m.kind == "static" and m.child in root and m.parent in root:
-            a, b = find(m.child), find(m.parent)
-            if a != b:
-                root[max(a, b)] = min(a, b)
+            join(m.child, m.parent)
     for p in model.parts:
         if p.block_of and p.block_of in root:
-            root[p.name] = find(p.block_of)
+            join(p.name, p.block_of)
     return {n: find(n) for n in root}
 
 
