@@ -193,15 +193,18 @@ def common(ga: PartGeometry, shape_a: Any, gb: PartGeometry, shape_b: Any) -> Co
 def _bounded_common(ga: PartGeometry, shape_a: Any, gb: PartGeometry, shape_b: Any) -> Common:
     budget = TOL.boolean_pair_budget
     pairs = face_pairs(face_boxes(ga), face_boxes(gb))
-    if pairs > budget:
-        lo = np.maximum(ga.lo, gb.lo) - TOL.crop_margin_mm
-        hi = np.minimum(ga.hi, gb.hi) + TOL.crop_margin_mm
-        try:
-            shape_a, shape_b = crop(shape_a, lo, hi), crop(shape_b, lo, hi)
-        except Exception as exc:  # noqa: BLE001  OCCT raised on a broken solid: say so, never crash
-            return _unverified(ga, gb, f"OCCT failed cropping them ({_first_line(exc)})")
-        if shape_a is None or shape_b is None:
-            return _unverified(ga, gb, "OCCT failed cropping them")
+    lo = np.maximum(ga.lo, gb.lo) - TOL.crop_margin_mm
+    hi = np.minimum(ga.hi, gb.hi) + TOL.crop_margin_mm
+    over = pairs > budget
+    try:
+        cut = ((crop(shape_a, lo, hi), crop(shape_b, lo, hi)) if over else
+               (_trimmed(ga, shape_a, lo, hi), _trimmed(gb, shape_b, lo, hi)))
+    except Exception as exc:  # noqa: BLE001  OCCT raised on a broken solid: say so, never crash
+        return _unverified(ga, gb, f"OCCT failed cropping them ({_first_line(exc)})")
+    if cut[0] is None or cut[1] is None:
+        return _unverified(ga, gb, "OCCT failed cropping them")
+    shape_a, shape_b = cut
+    if over:
         full = pairs
         pairs = face_pairs(_boxes_of_faces([shape_a]), _boxes_of_faces([shape_b]))
         if pairs > budget:
@@ -209,13 +212,6 @@ def _bounded_common(ga: PartGeometry, shape_a: Any, gb: PartGeometry, shape_b: A
                 f"{full} face pairs meet ({pairs} after cropping both to their boxes' overlap), "
                 f"over the budget of {budget} (config TOL.boolean_pair_budget)"))
         log.info("common %s & %s: %d face pairs, %d after cropping", ga.name, gb.name, full, pairs)
-    else:
-        try:
-            shape_a, shape_b = _trimmed(ga, shape_a, gb), _trimmed(gb, shape_b, ga)
-        except Exception as exc:  # noqa: BLE001  OCCT raised on a broken solid: say so, never crash
-            return _unverified(ga, gb, f"OCCT failed cropping them ({_first_line(exc)})")
-        if shape_a is None or shape_b is None:
-            return _unverified(ga, gb, "OCCT failed cropping them")
     try:
         solids = exact_common(shape_a, shape_b)
     except Exception as exc:  # noqa: BLE001  OCCT raised (a broken solid): say so, never crash
@@ -233,16 +229,14 @@ TRIM_FACES: int = 64
 TRIM_FRACTION: float = 0.25
 
 
-def _trimmed(ga: PartGeometry, shape: Any, gb: PartGeometry) -> Any | None:
-    """``shape`` (of ``ga``) cropped to the region where it can meet ``gb`` when it is a large
-    many-faced part reaching far beyond that region (:data:`TRIM_FACES`,
+def _trimmed(geo: PartGeometry, shape: Any, lo: np.ndarray, hi: np.ndarray) -> Any | None:
+    """``shape`` (of ``geo``) cropped to ``lo..hi``, the region where it can meet the other
+    part, when it is a large many-faced part reaching far beyond it (:data:`TRIM_FACES`,
     :data:`TRIM_FRACTION`), else as it is. The common lies inside the region, so the crop's
     common is the part's."""
-    lo = np.maximum(ga.lo, gb.lo) - TOL.crop_margin_mm
-    hi = np.minimum(ga.hi, gb.hi) + TOL.crop_margin_mm
     region = float(np.prod(np.maximum(hi - lo, 0.0)))
-    whole = float(np.prod(np.maximum(ga.hi - ga.lo, 1e-9)))
-    if face_count(ga) < TRIM_FACES or region >= TRIM_FRACTION * whole:
+    whole = float(np.prod(np.maximum(geo.hi - geo.lo, 1e-9)))
+    if face_count(geo) < TRIM_FACES or region >= TRIM_FRACTION * whole:
         return shape
     return crop(shape, lo, hi)
 
