@@ -290,13 +290,9 @@ def boxes_near(a: Box, b: Box, gap: float) -> bool:
 
 
 def exact_distance(shape_a: Any, shape_b: Any) -> float:
-    """Minimum distance between two B-rep shapes, mm (BRepExtrema; ~ms to ~70 ms)."""
-    from OCP.BRepExtrema import BRepExtrema_DistShapeShape
-
-    ext = BRepExtrema_DistShapeShape(shape_a, shape_b)
-    if not ext.IsDone():
-        return float("inf")
-    return float(ext.Value())
+    """Minimum distance between two B-rep shapes, mm (:func:`procedura_brep.kernel.distance`)."""
+    from .. import kernel
+    return kernel.distance(shape_a, shape_b)
 
 
 def solid_distance(ga: PartGeometry, ia: int, gb: PartGeometry, ib: int) -> float:

@@ -245,9 +245,7 @@ class _Keyer:
 
     def library(self, name: str, obj: Any) -> bool:
         """``obj`` is what the program API or ``math`` binds (an import, kept as imported)."""
-        if obj is math or getattr(math, name, _MISSING) is obj:
-            return True
-        return _api_object(name) is obj
+        return _is_library(name, obj)
 
     def program_fn(self, obj: Any) -> types.CodeType | None:
         code = getattr(obj, "__code__", None)
@@ -357,9 +355,14 @@ def _library_value(value: Any) -> str | None:
     name = getattr(value, "__name__", None)
     if not isinstance(name, str) or name.startswith("_"):
         return None
-    if getattr(math, name, _MISSING) is value or _api_object(name) is value:
-        return f"lib {name}"
-    return None
+    return f"lib {name}" if _is_library(name, value) else None
+
+
+def _is_library(name: str, obj: Any) -> bool:
+    """``obj`` is what the program API or ``math`` binds to ``name`` (or ``math`` itself)."""
+    if obj is math or getattr(math, name, _MISSING) is obj:
+        return True
+    return _api_object(name) is obj
 
 
 def _decl_options(decl: PartDecl) -> str:
