@@ -160,13 +160,7 @@ def usd_stage(model: CompiledModel, *, art: Articulation | None = None,
             elif kind.limited:  # degrees
                 jp.CreateLowerLimitAttr(float(np.degrees(j.lower)))
                 jp.CreateUpperLimitAttr(float(np.degrees(j.upper)))
-        jp.CreateBody0Rel().SetTargets([f"{root}/{j.parent}"])
-        jp.CreateBody1Rel().SetTargets([f"{root}/{j.child}"])
-        for body, setpos, setrot in ((j.parent, jp.CreateLocalPos0Attr, jp.CreateLocalRot0Attr),
-                                     (j.child, jp.CreateLocalPos1Attr, jp.CreateLocalRot1Attr)):
-            local = np.linalg.inv(art.link(body).frame) @ j.frame
-            setpos(Gf.Vec3f(*[float(c) for c in local[:3, 3] / 1000.0]))
-            setrot(_quatf(local[:3, :3] @ Z_TO_X))
+        _bodies(jp, art, root, j.parent, j.child, j.frame)
         if j.coupling is not None:  # moved by its driver: no drive of its own
             _coupling_attrs(jp.GetPrim(), j, art, f"{root}/joints")
         elif kind.compound:
@@ -199,18 +193,25 @@ def usd_stage(model: CompiledModel, *, art: Articulation | None = None,
 def _cut_joint(stage, path: str, cut, art: Articulation, root: str) -> None:
     """A linkage's cut joint: its UsdPhysics joint, excluded from the articulation (a loop
     closure), undriven."""
-    from pxr import Gf, UsdPhysics
+    from pxr import UsdPhysics
 
     from ..mates.vocabulary import TYPES
     kind = TYPES[cut.type].joint_kind(cut.mate.options)
     jp = getattr(UsdPhysics, kind.usd).Define(stage, path)
     jp.CreateAxisAttr("X")
     jp.CreateExcludeFromArticulationAttr(True)
-    jp.CreateBody0Rel().SetTargets([f"{root}/{cut.parent}"])
-    jp.CreateBody1Rel().SetTargets([f"{root}/{cut.child}"])
-    for body, setpos, setrot in ((cut.parent, jp.CreateLocalPos0Attr, jp.CreateLocalRot0Attr),
-                                 (cut.child, jp.CreateLocalPos1Attr, jp.CreateLocalRot1Attr)):
-        local = np.linalg.inv(art.link(body).frame) @ cut.frame
+    _bodies(jp, art, root, cut.parent, cut.child, cut.frame)
+
+
+def _bodies(jp, art: Articulation, root: str, parent: str, child: str, frame: np.ndarray) -> None:
+    """A joint prim's two bodies (links ``parent`` and ``child`` under ``root``) and its frame
+    ``frame`` (world, mm) in each link's frame (m; the joint's X along the frame's Z)."""
+    from pxr import Gf
+    jp.CreateBody0Rel().SetTargets([f"{root}/{parent}"])
+    jp.CreateBody1Rel().SetTargets([f"{root}/{child}"])
+    for body, setpos, setrot in ((parent, jp.CreateLocalPos0Attr, jp.CreateLocalRot0Attr),
+                                 (child, jp.CreateLocalPos1Attr, jp.CreateLocalRot1Attr)):
+        local = np.linalg.inv(art.link(body).frame) @ frame
         setpos(Gf.Vec3f(*[float(c) for c in local[:3, 3] / 1000.0]))
         setrot(_quatf(local[:3, :3] @ Z_TO_X))
 
