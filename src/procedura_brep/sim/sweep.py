@@ -681,19 +681,7 @@ class SweepScene:
                     hit.point = [round(float(x), 4) for x in p] if p is not None else []
             return gap
 
-        for q in outside:  # MuJoCo overshoots beyond the commanded range: one pose each
-            check(q)
-        poses, q = len(outside), lo
-        while True:
-            gap = check(q)
-            poses += 1
-            if q >= hi - 1e-12:
-                break
-            adv = max(float(np.min((np.maximum(gap, 0.0) + step) / lever)), min_adv)
-            q = min(q + adv, hi)
-            if joint.kind.endless and q >= hi - 1e-12:
-                break  # a full turn: 2 pi is the first pose again
-        return poses
+        return _advance(check, outside, lo, hi, step, lever, min_adv, endless=joint.kind.endless)
 
     def _crops(self, joint: Joint, a: str, b: str, local: np.ndarray, rest: float,
                span: tuple[float, float], radius: float, side: int = 0) -> tuple[object, object]:
@@ -945,16 +933,8 @@ class SweepScene:
                     hit.point = [round(float(x), 4) for x in p] if p is not None else []
             return gap
 
-        for q in outside:
-            check(q)
-        poses, q = len(outside), lo
-        while not first:  # the first pose past the tolerance ends the pair (see above)
-            gap = check(q)
-            poses += 1
-            if q >= hi - 1e-12:
-                break
-            adv = max(float(np.min((np.maximum(gap, 0.0) + step) / lever)), min_adv)
-            q = min(q + adv, hi)
+        # the first pose past the tolerance ends the pair (see above)
+        poses = _advance(check, outside, lo, hi, step, lever, min_adv, until=lambda: bool(first))
         hit.samples = max(hit.samples, poses)
         hit.step_mm = step
         return True
@@ -1061,6 +1041,28 @@ def _envelope(corners: np.ndarray, moves: list[tuple[Joint, float]],
             radius += float(np.linalg.norm(c - foot))
             c = foot
     return c, radius
+
+
+def _advance(check: Callable[[float], np.ndarray], outside: list[float], lo: float, hi: float,
+             step: float, lever: np.ndarray, min_adv: float, *, endless: bool = False,
+             until: Callable[[], bool] = lambda: False) -> int:
+    """Conservative advancement from ``lo`` to ``hi``: ``check`` each pose (first the MuJoCo
+    overshoots ``outside`` the range, one pose each) and step to the nearest value at which some
+    cell has moved its gap plus ``step`` (its ``lever``: mm per unit of the value), never less
+    than ``min_adv``; an ``endless`` turn stops before 2 pi (the first pose again), and
+    ``until()`` ends the march early. Returns the poses checked."""
+    for q in outside:
+        check(q)
+    poses, q = len(outside), lo
+    while not until():
+        gap = check(q)
+        poses += 1
+        if q >= hi - 1e-12:
+            break
+        q = min(q + max(float(np.min((np.maximum(gap, 0.0) + step) / lever)), min_adv), hi)
+        if endless and q >= hi - 1e-12:
+            break
+    return poses
 
 
 def _one_line(moves: list[tuple[Joint, float]]) -> tuple[np.ndarray, np.ndarray] | None:
