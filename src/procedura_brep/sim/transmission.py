@@ -25,6 +25,7 @@ without), and the cut joint's two anchors (the connect's point on each body) sta
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -77,14 +78,20 @@ def head_range(art: Articulation, head: str, couplings: list[Coupling]) -> tuple
         hi = FREE_TURN
     if hi <= lo:
         return 0.0, 0.0
+    return _central(lo, hi)
+
+
+def _central(lo: float, hi: float) -> tuple[float, float]:
+    """The middle :data:`RANGE_FRACTION` of ``lo..hi`` (clear of the limits' stops)."""
     mid, half = (lo + hi) / 2, (hi - lo) / 2 * RANGE_FRACTION
     return mid - half, mid + half
 
 
-def _drive(m: MjModel, head: Joint, lo: float, hi: float, names: list[str]
+def _drive(m: MjModel, head: Joint, lo: float, hi: float, names: list[str],
+           each: Callable[[Any], None] | None = None
            ) -> tuple[dict[str, np.ndarray], dict[str, int], list[np.ndarray]]:
     """Ramp ``head`` 0 -> lo -> hi; the positions of ``names`` at every step, the warnings,
-    and states for frames."""
+    and states for frames; ``each(d)`` after every step (a loop's cut gap)."""
     import mujoco
     act = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, head.name)
     if act < 0:
@@ -101,6 +108,8 @@ def _drive(m: MjModel, head: Joint, lo: float, hi: float, names: list[str]
         for s in range(n):
             d.ctrl[act] = (end - start) / dur if velocity else start + (end - start) * (s + 1) / n
             mujoco.mj_step(m, d)
+            if each is not None:
+                each(d)
             for name, adr in qadr.items():
                 rows[name].append(float(d.qpos[adr]))
             if k % FRAME_EVERY == 0:
@@ -133,38 +142,21 @@ def _cut_gaps(m: MjModel, cut: str) -> tuple[Any, Any]:
 def _linkage(m: MjModel, art: Articulation, name: str, couplings: list[Coupling]
              ) -> tuple[dict[str, Any], list[str], list[np.ndarray]]:
     """One linkage's row, its problems and its states for frames."""
-    import mujoco
     src = couplings[0].source
     head = art.joint(src.driver)
     lo, hi = (head.lower, head.upper) if head.lower is not None and head.upper is not None \
         else (-FREE_TURN, FREE_TURN)
-    mid, half = (lo + hi) / 2, (hi - lo) / 2 * RANGE_FRACTION
-    lo, hi = mid - half, mid + half
+    lo, hi = _central(lo, hi)
     if head.drive == "velocity":
         a = min(-lo, hi, 0.5 * head.velocity * LEG_S)
         lo, hi = -a, a
     gap, _ = _cut_gaps(m, src.closes)
-    names = sorted({src.driver, src.driven})
-    act = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, head.name)
-    if act < 0:
-        raise KeyError(f"joint {head.name!r} has no actuator in model.xml")
-    qadr = {n: int(m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n)]) for n in names}
-    d = mujoco.MjData(m)
-    dt = float(m.opt.timestep)
-    q: dict[str, list[float]] = {n: [] for n in names}
-    worst_gap, traj, k = 0.0, [], 0
-    for start, end, dur in ((0.0, lo, LEG_S), (lo, hi, 2 * LEG_S)):
-        n = max(1, int(dur / dt))
-        for s in range(n):
-            d.ctrl[act] = (end - start) / dur if head.drive == "velocity" else start + (end - start) * (s + 1) / n
-            mujoco.mj_step(m, d)
-            worst_gap = max(worst_gap, gap(d))
-            for nm, adr in qadr.items():
-                q[nm].append(float(d.qpos[adr]))
-            if k % FRAME_EVERY == 0:
-                traj.append(d.qpos.copy())
-            k += 1
-    warns = warnings_of(d)
+    worst_gap = 0.0
+
+    def track(d: Any) -> None:
+        nonlocal worst_gap
+        worst_gap = max(worst_gap, gap(d))
+    q, warns, traj = _drive(m, head, lo, hi, sorted({src.driver, src.driven}), each=track)
     x, y = np.asarray(q[src.driver]), np.asarray(q[src.driven])
     travel, commanded = float(x.max() - x.min()), hi - lo
     driven_travel = float(y.max() - y.min())
