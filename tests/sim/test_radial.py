@@ -23,7 +23,7 @@ def _solid(kind: str):
 
 
 def _range(kind: str) -> tuple[float, float]:
-    tris, devs, _ = surface(_solid(kind).wrapped)
+    tris, devs, _, _ = surface(_solid(kind).wrapped)
     return radial_range(tris, devs, np.zeros(3), np.array([1.0, 0.0, 0.0]))
 
 

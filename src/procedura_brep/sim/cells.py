@@ -271,16 +271,18 @@ def faces(shape) -> list[Face]:
 
 
 def surface(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
-            keep=None, meshed: list[Face] | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            keep=None, meshed: list[Face] | None = None
+            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(triangles (n, 3, 3) of the located, meshed ``shape``'s covered faces, world mm; per
     triangle, how far its exact face may lie from it, mm: the tessellation's linear deflection,
     or 0 on a plane, which its triangles lie in exactly; per triangle, the axis of its face when
-    it is a cylinder (its chords deviate only across that axis), else zeros): the faces
-    :func:`cover` would cover. ``meshed`` is ``faces(shape)`` when the caller has it."""
+    it is a cylinder (its chords deviate only across that axis), else zeros; per triangle, the
+    index of its face in ``faces(shape)``): the faces :func:`cover` would cover. ``meshed`` is
+    ``faces(shape)`` when the caller has it."""
     from ..kernel import _ocp
     o = _ocp()
-    tris, devs, axes = [], [], []
-    for f in faces(shape) if meshed is None else meshed:
+    tris, devs, axes, ids = [], [], [], []
+    for k, f in enumerate(faces(shape) if meshed is None else meshed):
         if axis is not None and invariant_under_rotation(f.face, axis[0], axis[1], o):
             continue
         if keep is not None and not keep(f.face, o):
@@ -288,9 +290,10 @@ def surface(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
         tris.append(f.tris)
         devs.append(np.full(len(f.tris), f.dev))
         axes.append(np.broadcast_to(f.axis, (len(f.tris), 3)))
+        ids.append(np.full(len(f.tris), k, dtype=np.int64))
     if not tris:
-        return np.zeros((0, 3, 3)), np.zeros(0), np.zeros((0, 3))
-    return np.vstack(tris), np.concatenate(devs), np.vstack(axes)
+        return np.zeros((0, 3, 3)), np.zeros(0), np.zeros((0, 3)), np.zeros(0, dtype=np.int64)
+    return np.vstack(tris), np.concatenate(devs), np.vstack(axes), np.concatenate(ids)
 
 
 def cover_of(tris: np.ndarray, linear: float, cell: float) -> Cover:
@@ -315,12 +318,12 @@ def cover(shape, *, axis: tuple[np.ndarray, np.ndarray] | None = None,
     ``keep(face, ocp) -> bool`` filter such as :func:`faces_along`), only the faces it keeps
     are covered. ``cell`` is the finest cell side; :func:`cell_side` widens it to keep about
     ``max_cells`` (default ``TOL.sweep_max_cells``) cells."""
-    tris, devs, _ = surface(shape, axis=axis, keep=keep)
+    tris, devs, _, _ = surface(shape, axis=axis, keep=keep)
     return cover_of(tris, float(devs.max(initial=0.0)), cell_side(tris, cell, max_cells))
 
 
 __all__ = ["Cover", "Face", "cell_side", "cover", "cover_of", "cover_radius", "faces", "faces_along",
-           "invariant_under_rotation", "side_of_motion", "surface"]
+           "invariant_under_rotation", "nearest_to_origin", "side_of_motion", "surface"]
 
 
 def radial_range(tris: np.ndarray, devs: np.ndarray, point: np.ndarray, axis: np.ndarray
@@ -345,7 +348,13 @@ def radial_range(tris: np.ndarray, devs: np.ndarray, point: np.ndarray, axis: np
     e2 = np.cross(a, e1)
     p = np.stack([rel @ e1, rel @ e2], axis=-1)  # (n, 3, 2): the triangles across the line
     far = float((np.linalg.norm(p, axis=-1).max(axis=1) + devs).max())
-    # nearest point of each edge to the origin
+    near = nearest_to_origin(p) - devs
+    return max(float(near.min()), 0.0), far
+
+
+def nearest_to_origin(p: np.ndarray) -> np.ndarray:
+    """Per plane triangle (n, 3, 2), its least distance from the origin: 0 when it covers the
+    origin, else that of its nearest edge (a triangle across a line: its distance from it)."""
     q0, q1 = p, np.roll(p, -1, axis=1)
     d = q1 - q0
     dd = np.einsum("nij,nij->ni", d, d)
@@ -355,8 +364,7 @@ def radial_range(tris: np.ndarray, devs: np.ndarray, point: np.ndarray, axis: np
     # the origin inside the projected triangle: the three edge cross products share a sign
     cr = q0[..., 0] * d[..., 1] - q0[..., 1] * d[..., 0]  # cross(d, -q0) sign convention
     inside = np.all(cr >= 0, axis=1) | np.all(cr <= 0, axis=1)
-    near = np.where(inside, 0.0, edge) - devs
-    return max(float(near.min()), 0.0), far
+    return np.where(inside, 0.0, edge)
 
 
 def radial_apart(a: tuple[float, float], b: tuple[float, float], margin: float = 0.0) -> bool:

@@ -45,7 +45,14 @@ Cost is kept down by prefilters, all conservative for the thickness measure:
   faces of *both* parts that the rotation moves within themselves (planes normal to the axis,
   surfaces of revolution about it, :func:`.cells.invariant_under_rotation`): a moved point can
   enter the fixed part only where the fixed part's outward normal opposes its velocity, never
-  on such a face, so a tilting head between the cheeks of its yoke costs no boolean there.
+  on such a face, so a tilting head between the cheeks of its yoke costs no boolean there;
+* a pair clear at the start is dropped when the faces that can start an overlap meet only in
+  thin slabs along a direction the motion preserves (:meth:`SweepScene._moving_faces_apart`):
+  a moved point enters the fixed part through a fixed face it crosses at its own height, so
+  the common lies where some near pair of such triangles (their heights widened by their
+  deviation, then kept within their exact face's extent) overlaps in height; a head whose
+  fillets cross its cheek's end faces in the plane where its side touches the cheek meets the
+  cheek in a sheet, never a solid.
 
 A sweep that still spends ``TOL.sweep_max_booleans``, or runs longer than ``TOL.sweep_time_s``
 (checked between booleans and between poses: one OCCT boolean cannot be interrupted from Python,
@@ -102,6 +109,7 @@ from .cells import (
     cover_radius,
     faces,
     faces_along,
+    nearest_to_origin,
     radial_apart,
     radial_range,
     surface,
@@ -283,12 +291,14 @@ class SweepScene:
         self._box: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._rest: dict[tuple[str, str], Overlap] = {}
         self._extent: dict[tuple[str, bytes], tuple[float, float]] = {}
-        self._surface: dict[tuple[str, bytes, bytes], tuple[np.ndarray, np.ndarray, float, np.ndarray]] = {}
+        self._surface: dict[tuple[str, bytes, bytes], tuple[np.ndarray, np.ndarray, float, np.ndarray, np.ndarray]] = {}
         self._pair_cover: dict[tuple, tuple[tuple[Cover, cKDTree | None], tuple[Cover, cKDTree | None]]] = {}
         self._faces: dict[str, list[Face]] = {}  # each part's meshed faces, read once
         self._pair_near: dict[tuple, tuple[tuple[np.ndarray, ...], tuple[np.ndarray, ...]]] = {}
         self._whole: dict[str, tuple[Cover, cKDTree | None]] = {}  # compound pairs' covers
         self._radii: dict[tuple[str, bytes], tuple[float, float]] = {}  # radial ranges by line
+        self._near_pairs: dict[tuple, np.ndarray] = {}  # :meth:`_near`'s triangle pairs
+        self._extent_face: dict[tuple[str, int, bytes], tuple[float, float]] = {}
         self.booleans = 0
         self._joint_start = 0  # self.booleans when the current joint's sweep began
         self._deadline = math.inf  # time.monotonic() past which the current joint's sweep stops
@@ -307,7 +317,7 @@ class SweepScene:
             raise _BudgetSpent(where(), "time")
 
     def surface(self, name: str, joint: Joint | None = None,
-                side: int = 0) -> tuple[np.ndarray, np.ndarray, float, np.ndarray]:
+                side: int = 0) -> tuple[np.ndarray, np.ndarray, float, np.ndarray, np.ndarray]:
         """(triangles (n, 3, 3) world mm at rest, each one's deviation from its exact face, the
         cell side, each one's cylinder axis or zeros, :func:`.cells.surface`) of the
         part's faces a sweep covers: with a revolute or continuous ``joint``, without the faces
@@ -328,8 +338,8 @@ class SweepScene:
         if key not in self._surface:
             if name not in self._faces:
                 self._faces[name] = faces(self.model.part(name).shape())
-            tris, devs, axes = surface(None, axis=axis, keep=keep, meshed=self._faces[name])
-            self._surface[key] = (tris, devs, cell_side(tris), axes)
+            tris, devs, axes, ids = surface(None, axis=axis, keep=keep, meshed=self._faces[name])
+            self._surface[key] = (tris, devs, cell_side(tris), axes, ids)
         return self._surface[key]
 
     def _local_box(self, name: str) -> tuple[np.ndarray, np.ndarray]:
@@ -349,12 +359,8 @@ class SweepScene:
         key = (name, np.round(direction, 12).tobytes())
         if key not in self._extent:
             p = self.model.part(name)
-            z = np.asarray(direction, float)
-            x = np.cross(z, [1.0, 0, 0] if abs(z[0]) < 0.9 else [0, 1.0, 0])
-            x /= np.linalg.norm(x)
-            rot = np.eye(4)
-            rot[:3, :3] = np.array([x, np.cross(z, x), z])  # rows: world -> frame with z = direction
-            lo, hi = kernel.bbox(kernel.located(p.local_shape(), rot @ p.placement), optimal=True)
+            lo, hi = kernel.bbox(kernel.located(p.local_shape(), _to_z(direction) @ p.placement),
+                                 optimal=True)
             self._extent[key] = (lo[2], hi[2])
         return self._extent[key]
 
@@ -464,7 +470,7 @@ class SweepScene:
         if (name, key) not in self._radii:
             if name not in self._faces:
                 self._faces[name] = faces(self.model.part(name).shape())
-            tris, devs, _ = surface(None, meshed=self._faces[name])
+            tris, devs, _, _ = surface(None, meshed=self._faces[name])
             self._radii[(name, key)] = radial_range(tris, devs, p, u)
         return self._radii[(name, key)]
 
@@ -477,8 +483,8 @@ class SweepScene:
         cells of a large part far from the joint's reach are never laid."""
         key = (a, b, joint.name, joint.type, side)
         if key not in self._pair_near:
-            ta, da, ca, xa = self.surface(a, joint, side)
-            tb, db, cb, xb = self.surface(b, joint if side else None, -side)
+            ta, da, ca, xa, fa = self.surface(a, joint, side)
+            tb, db, cb, xb, fb = self.surface(b, joint if side else None, -side)
             la, lb = float(da.max(initial=0.0)), float(db.max(initial=0.0))
             inv = rigid_inverse(joint.frame)
             reach = cover_radius(ca, la) + cover_radius(cb, lb) + TOL.sweep_box_slack_mm
@@ -488,9 +494,13 @@ class SweepScene:
             ia = _in_box(lo_a, hi_a, lo_b.min(axis=0, initial=np.inf), hi_b.max(axis=0, initial=-np.inf), reach)
             ib = _in_box(lo_b, hi_b, lo_a.min(axis=0, initial=np.inf), hi_a.max(axis=0, initial=-np.inf), reach)
             near = box_pairs(lo_a[ia], hi_a[ia], reach, lo_b[ib], hi_b[ib])
-            keep_a, keep_b = ia[np.unique(near[:, 0])], ib[np.unique(near[:, 1])]
-            self._pair_near[key] = ((ta[keep_a], da[keep_a], ca, xa[keep_a]),
-                                    (tb[keep_b], db[keep_b], cb, xb[keep_b]))
+            ua, ra = np.unique(near[:, 0], return_inverse=True)
+            ub, rb = np.unique(near[:, 1], return_inverse=True)
+            keep_a, keep_b = ia[ua], ib[ub]
+            self._pair_near[key] = ((ta[keep_a], da[keep_a], ca, xa[keep_a], fa[keep_a]),
+                                    (tb[keep_b], db[keep_b], cb, xb[keep_b], fb[keep_b]))
+            # the near triangle pairs, as indices into the kept triangles
+            self._near_pairs[key] = np.column_stack([ra.ravel(), rb.ravel()]).astype(np.int64)
         return self._pair_near[key]
 
     def _covers(self, joint: Joint, a: str, b: str, side: int) -> tuple[tuple[Cover, cKDTree | None],
@@ -498,7 +508,7 @@ class SweepScene:
         """The covers a pair is swept with: of the triangles :meth:`_near` keeps."""
         key = (a, b, joint.name, joint.type, side)
         if key not in self._pair_cover:
-            (ta, da, ca, _), (tb, db, cb, _) = self._near(joint, a, b, side)
+            (ta, da, ca, _, _), (tb, db, cb, _, _) = self._near(joint, a, b, side)
             self._pair_cover[key] = (_with_tree(cover_of(ta, float(da.max(initial=0.0)), ca)),
                                      _with_tree(cover_of(tb, float(db.max(initial=0.0)), cb)))
         return self._pair_cover[key]
@@ -530,21 +540,61 @@ class SweepScene:
         slide's two cross directions):
         an overlap can only begin where two such faces meet, and one that begins there stays
         within that slab, as :func:`_slab_gap` argues for whole parts. The extents are the
-        triangles' vertices (on the exact faces) widened by the faces' deviation from them."""
-        (ta, da, _, xa), (tb, db, _, xb) = self._near(joint, a, b, side)
+        triangles' vertices (on the exact faces) widened by the faces' deviation from them,
+        within each part's exact extent.
+
+        Then pair by pair: a point of the common got there when a kept face of ``a`` carried
+        it across a kept face of ``b`` (the invariant faces of either move within themselves),
+        at its own height along the direction, where the two faces' triangles are a near pair
+        of :meth:`_near` whose heights overlap. So the common lies in the union of those
+        overlaps; when every piece of the union is thinner than the tolerance, so is the common
+        (:func:`_thin_union`). The heights of a curved face's triangles are kept within that
+        face's exact extent (:meth:`_face_heights`) when the deviation alone leaves a piece
+        too thick."""
+        (ta, da, _, xa, fa), (tb, db, _, xb, fb) = self._near(joint, a, b, side)
         if not len(ta) or not len(tb):
             return True  # nothing of one side can start an overlap
+        pairs = self._near_pairs[(a, b, joint.name, joint.type, side)]
         for d in self._invariant_dirs(joint):
             d = d / np.linalg.norm(d)
-            pa, pb = ta @ d, tb @ d  # (n, 3) vertex heights along d
-            # a cylinder's chords deviate across its axis only: along d by sin(axis, d)
-            ea = da * np.sqrt(np.clip(1.0 - (xa @ d) ** 2, 0.0, 1.0))
-            eb = db * np.sqrt(np.clip(1.0 - (xb @ d) ** 2, 0.0, 1.0))
-            overlap = (min(float((pa.max(axis=1) + ea).max()), float((pb.max(axis=1) + eb).max()))
-                       - max(float((pa.min(axis=1) - ea).min()), float((pb.min(axis=1) - eb).min())))
+            lo_a, hi_a = _heights(ta, da, xa, d, self.extent(a, d))
+            lo_b, hi_b = _heights(tb, db, xb, d, self.extent(b, d))
+            overlap = min(float(hi_a.max()), float(hi_b.max())) - max(float(lo_a.min()), float(lo_b.min()))
             if overlap < TOL.sim_penetration_mm:
                 return True
+            # pair by pair: the common lies where some near pair's heights overlap
+            lo = np.maximum(lo_a[pairs[:, 0]], lo_b[pairs[:, 1]])
+            hi = np.minimum(hi_a[pairs[:, 0]], hi_b[pairs[:, 1]])
+            if _thin_union(lo, hi, TOL.sim_penetration_mm):
+                return True
+            # the curved faces' triangles widened by their deviation: their faces' exact heights
+            lo_a, hi_a = self._face_heights(a, fa, da, d, lo_a, hi_a)
+            lo_b, hi_b = self._face_heights(b, fb, db, d, lo_b, hi_b)
+            lo = np.maximum(lo_a[pairs[:, 0]], lo_b[pairs[:, 1]])
+            hi = np.minimum(hi_a[pairs[:, 0]], hi_b[pairs[:, 1]])
+            if _thin_union(lo, hi, TOL.sim_penetration_mm):
+                return True
         return False
+
+    def _face_heights(self, name: str, ids: np.ndarray, devs: np.ndarray, d: np.ndarray,
+                      lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``lo``, ``hi`` (per triangle of ``name``, from :func:`_heights`) kept within the
+        exact extent along unit ``d`` of the face each triangle is laid on (``ids``: indices into
+        :func:`.cells.faces` of the part), for the triangles that deviate (curved faces)."""
+        lo, hi = lo.copy(), hi.copy()
+        for k in np.unique(ids[devs > 0]):
+            f_lo, f_hi = self._face_extent(name, int(k), d)
+            on = ids == k
+            lo[on], hi[on] = np.maximum(lo[on], f_lo), np.minimum(hi[on], f_hi)
+        return lo, hi
+
+    def _face_extent(self, name: str, k: int, d: np.ndarray) -> tuple[float, float]:
+        """Exact (min, max) along a world unit ``d`` of face ``k`` of the placed part."""
+        key = (name, k, np.round(d, 12).tobytes())
+        if key not in self._extent_face:
+            lo, hi = kernel.bbox(kernel.located(self._faces[name][k].face, _to_z(d)), optimal=True)
+            self._extent_face[key] = (lo[2], hi[2])
+        return self._extent_face[key]
 
     def orbit_cells(self, joint: Joint, a: str, b: str, side: int = 0) -> tuple[np.ndarray, float]:
         """(centres of ``a``'s surface cells whose orbit under the joint passes near ``b``'s
@@ -835,8 +885,8 @@ class SweepScene:
         if key not in self._whole:
             if name not in self._faces:
                 self._faces[name] = faces(self.model.part(name).shape())
-            tris, devs, _ = surface(None, meshed=self._faces[name],
-                                    keep=None if drop is None else drop[1])
+            tris, devs, _, _ = surface(None, meshed=self._faces[name],
+                                       keep=None if drop is None else drop[1])
             self._whole[key] = _with_tree(cover_of(tris, float(devs.max(initial=0.0)), cell_side(tris)))
         return self._whole[key]
 
@@ -1122,8 +1172,9 @@ def _in_box(lo: np.ndarray, hi: np.ndarray, blo: np.ndarray, bhi: np.ndarray,
 def _orbit_boxes(tris: np.ndarray, frame_inv: np.ndarray, slides: bool) -> tuple[np.ndarray, np.ndarray]:
     """Per triangle (world mm), a box holding its orbit's coordinates in a joint frame: its
     (x, y) under a slide along Z (every point keeps them), its (distance from the axis, z)
-    under a turn about Z (the distance conservatively: its vertices' least less its longest
-    edge, to their greatest). The third coordinate is 0, for :func:`box_pairs`."""
+    under a turn about Z (the distance: the triangle's least, :func:`.cells.nearest_to_origin`
+    of its projection across the axis, to its vertices' greatest). The third coordinate is 0,
+    for :func:`box_pairs`."""
     if not len(tris):
         return np.zeros((0, 3)), np.zeros((0, 3))
     p = tris @ frame_inv[:3, :3].T + frame_inv[:3, 3]
@@ -1131,15 +1182,52 @@ def _orbit_boxes(tris: np.ndarray, frame_inv: np.ndarray, slides: bool) -> tuple
     if slides:
         lo[:, :2], hi[:, :2] = p[:, :, :2].min(axis=1), p[:, :, :2].max(axis=1)
         return lo, hi
-    r = np.linalg.norm(p[:, :, :2], axis=2)
-    edge = np.linalg.norm(p[:, :, :2] - np.roll(p[:, :, :2], 1, axis=1), axis=2).max(axis=1)
-    lo[:, 0], hi[:, 0] = np.maximum(r.min(axis=1) - edge, 0.0), r.max(axis=1)
+    lo[:, 0], hi[:, 0] = nearest_to_origin(p[:, :, :2]), np.linalg.norm(p[:, :, :2], axis=2).max(axis=1)
     lo[:, 1], hi[:, 1] = p[:, :, 2].min(axis=1), p[:, :, 2].max(axis=1)
     return lo, hi
 
 
 def trans_z(z: float) -> np.ndarray:
     return trans(z=z)
+
+
+def _to_z(direction: np.ndarray) -> np.ndarray:
+    """A rotation (4x4) taking the world unit ``direction`` to +Z."""
+    z = np.asarray(direction, float)
+    x = np.cross(z, [1.0, 0, 0] if abs(z[0]) < 0.9 else [0, 1.0, 0])
+    x /= np.linalg.norm(x)
+    rot = np.eye(4)
+    rot[:3, :3] = np.array([x, np.cross(z, x), z])  # rows: world -> frame with z = direction
+    return rot
+
+
+def _heights(tris: np.ndarray, devs: np.ndarray, axes: np.ndarray, d: np.ndarray,
+             extent: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
+    """Per triangle (n, 3, 3), the (least, greatest) height along unit ``d`` of its exact face's
+    points it stands for: its vertices' widened by its deviation ``devs`` (a cylinder's chords
+    deviate across its axis ``axes`` only: along d by sin(axis, d)), kept within the part's
+    exact ``extent`` along d (every point of the part lies in it)."""
+    h = tris @ d
+    e = devs * np.sqrt(np.clip(1.0 - (axes @ d) ** 2, 0.0, 1.0))
+    return (np.maximum(h.min(axis=1) - e, extent[0]), np.minimum(h.max(axis=1) + e, extent[1]))
+
+
+def _thin_union(lo: np.ndarray, hi: np.ndarray, thick: float) -> bool:
+    """Whether the union of the intervals ``lo..hi`` (empty ones, ``hi < lo``, left out) has
+    no piece ``thick`` or thicker (an empty union has none). A solid that lies in such a union
+    of slabs has each connected piece inside one slab, so ``2 V / S`` below ``thick`` (a solid
+    in a slab of thickness t has S >= 2 V / t, and the ratio of sums is at most the largest)."""
+    ok = hi >= lo
+    lo, hi = lo[ok], hi[ok]
+    if not len(lo):
+        return True
+    order = np.argsort(lo, kind="stable")
+    lo, hi = lo[order], hi[order]
+    reach = np.maximum.accumulate(hi)
+    start = np.concatenate([[True], lo[1:] > reach[:-1]])  # a new piece: past all before it
+    first = np.flatnonzero(start)
+    last = np.concatenate([first[1:], [len(lo)]]) - 1
+    return bool(np.all(reach[last] - lo[first] < thick))
 
 
 def _slab_gap(a: tuple[float, float], b: tuple[float, float]) -> bool:
