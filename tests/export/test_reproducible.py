@@ -139,3 +139,15 @@ def test_semicolons_in_strings_do_not_split_records() -> None:
     assert [r for r, _ in step_order._split_records(data)] == \
         ["#1 = A('x;y')", "#2 = B('it''s; fine',#1)"]
     assert step_order._refs("B('#9',#1)") == [1]
+
+
+def test_a_reference_inside_a_geometry_string_is_not_one() -> None:
+    """The geometry section is checked for references into the colour section on its text with
+    its strings left out: a name that reads '#3' refers to nothing."""
+    text = ("ISO-10303-21;\nHEADER;\nENDSEC;\nDATA;\n#1 = FOO('part #3');\n"
+            "#2 = STYLED_ITEM('color',(#3),#1);\n#3 = COLOUR_RGB('',1.,0.,0.);\nENDSEC;\n"
+            "END-ISO-10303-21;\n")
+    out = step_order._canonical(text)
+    assert "#1 = FOO('part #3');" in out and "COLOUR_RGB" in out
+    data = "#1 = A('x;y');\n#2 = B(#1);"
+    assert [off for _, off in step_order._split_records(data)] == [len("#1 = A('x;y');"), len(data)]

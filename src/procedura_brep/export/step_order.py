@@ -40,47 +40,42 @@ INDENT = "    "
 
 _REF = re.compile(r"#(\d+)")
 _ID = re.compile(r"#(\d+)\s*=\s*")
+#: A run of a record's text: a string (apostrophe to apostrophe, or to the end when left open)
+#: or the text between strings.
+_RUN = re.compile(r"'[^']*'?|[^']+")
+_STRING = re.compile(r"'[^']*'")
 
 
 def _split_records(data: str) -> list[tuple[str, int]]:
     """The records of a DATA section body: ``(#n = ... without the ;, offset after the ;)``.
 
-    Semicolons inside STEP strings (apostrophe-quoted, ``''`` escapes) do not end a record.
+    Semicolons inside STEP strings (apostrophe-quoted, ``''`` escapes) do not end a record: a
+    piece between two semicolons that leaves an odd count of apostrophes open continues into
+    the next (a ``''`` escape counts two, like an end and a new start).
     """
-    out, start, quoted = [], 0, False
-    for i, ch in enumerate(data):
-        if ch == "'":
-            quoted = not quoted
-        elif ch == ";" and not quoted:
-            out.append((data[start:i].strip(), i + 1))
-            start = i + 1
+    out, start, pos, quotes = [], 0, 0, 0
+    for piece in data.split(";")[:-1]:
+        quotes += piece.count("'")
+        pos += len(piece) + 1  # the offset after this piece's semicolon
+        if quotes % 2 == 0:
+            out.append((data[start:pos - 1].strip(), pos))
+            start, quotes = pos, 0
     if data[start:].strip():
         raise KernelError("STEP DATA section ends inside a record")
     return out
 
 
 def _outside_strings(body: str) -> list[tuple[str, bool]]:
-    """``body`` cut into (text, is_string) runs."""
-    runs, cur, quoted = [], [], False
-    for ch in body:
-        if ch == "'" and not quoted:
-            if cur:
-                runs.append(("".join(cur), False))
-            cur, quoted = [ch], True
-        elif ch == "'" and quoted:
-            cur.append(ch)
-            quoted = False
-            runs.append(("".join(cur), True))
-            cur = []
-        else:
-            cur.append(ch)
-    if cur:
-        runs.append(("".join(cur), quoted))
-    return runs
+    """``body`` cut into (text, is_string) runs (a string left open at the end is one too)."""
+    if "'" not in body:  # a record without a string
+        return [(body, False)]
+    return [(m.group(), m.group().startswith("'")) for m in _RUN.finditer(body)]
 
 
 def _refs(body: str) -> list[int]:
     """Entity numbers ``body`` refers to, in field order (not those inside strings)."""
+    if "'" not in body:
+        return [int(m) for m in _REF.findall(body)]
     return [int(m) for text, is_str in _outside_strings(body) if not is_str
             for m in _REF.findall(text)]
 
@@ -148,10 +143,11 @@ def _canonical(text: str) -> str:
                   if body.lstrip("( ").split("(", 1)[0].strip() in PRESENTATION_TYPES), None)
     if first is None:
         return text
-    head, tail = parsed[:first], parsed[first:]
+    tail = parsed[first:]
     ids = [i for i, _ in tail]
     tail_ids = set(ids)
-    if any(r in tail_ids for _, body in head for r in _refs(body)):
+    head_text = text[body_start:body_start + records[first - 1][1]] if first else ""
+    if {int(r) for r in _REF.findall(_STRING.sub("", head_text))} & tail_ids:  # ids and references
         raise KernelError("the STEP colour section is referenced by geometry entities; "
                           "cannot order it deterministically")
     bodies = dict(tail)
