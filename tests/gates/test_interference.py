@@ -416,3 +416,35 @@ def test_the_tiles_of_a_many_faced_part_are_shared_by_the_parts_along_it(monkeyp
     clear_caches()
     naive = len(blocks) * common_mod.face_count(ga)
     assert sum(visited) < 0.35 * naive, (sum(visited), naive)
+
+
+def test_a_many_faced_part_whose_faces_there_end_near_the_region_is_not_cropped(monkeypatch):
+    """A wheel of many faces meets its hub in a region its faces there do not reach far beyond
+    (the bore, the wheel's side faces no more than four times the region): OCCT skips the other
+    faces by their boxes, so a crop would only add a boolean (the rover's gates: 1.7 s with
+    the crops, 1.25 s without). The common is the same."""
+    import math
+
+    from build123d import Box, Cylinder, Pos, Rot
+
+    from procedura_brep.gates import common as common_mod
+    from procedura_brep.gates.geometry import clear_caches, part_geometry
+    from procedura_brep.testing.models import cpart
+
+    wheel = Cylinder(50, 20) - Cylinder(15, 20)
+    for k in range(40):  # 40 tread blocks round the rim: 200+ faces
+        a = 2 * math.pi * k / 40
+        wheel += Pos(52 * math.cos(a), 52 * math.sin(a), 0) * Rot(0, 0, math.degrees(a)) * Box(4, 3, 20)
+    wheel_p, hub_p = cpart("wheel", wheel), cpart("hub", Cylinder(15.2, 30))
+    ga, gb = part_geometry(wheel_p), part_geometry(hub_p)
+    assert common_mod.face_count(ga) >= common_mod.TRIM_FACES
+    crops = []
+    real_crop = common_mod.crop
+    monkeypatch.setattr(common_mod, "crop", lambda s, lo, hi: crops.append(hi - lo) or real_crop(s, lo, hi))
+    clear_caches()
+    got = common_mod.common(ga, wheel_p.shape(), gb, hub_p.shape())
+    assert crops == []
+    whole = common_mod.exact_common(wheel_p.shape(), hub_p.shape())
+    assert got.exact and sum(s.volume for s in got.solids) == pytest.approx(sum(s.volume for s in whole), rel=1e-9)
+    assert sum(s.volume for s in whole) > 0
+    clear_caches()
