@@ -59,6 +59,18 @@ def test_a_feed_hub_high_above_the_floor_is_not_a_wheel(worker):
     assert build_mjcf(model, art=art).free_root is False  # a spinning joint: the base stays welded
 
 
+def test_articulating_tessellates_no_part_off_the_floor(worker):
+    """Issue 24: whether a continuous joint's subtree reaches the floor is read from the parts'
+    exact boxes, before the roundness test that needs the child's mesh: a 207-turn lead screw
+    high above the floor took 25 s to tessellate just to be turned down."""
+    from procedura_brep.program import model as model_mod
+    model = _hub(worker, 700.0)
+    model_mod._MESHES.clear()
+    assert articulate(model).wheels == []
+    assert model.part("hub").digest not in model_mod._MESHES
+    assert not model_mod._MESHES  # nor any other part
+
+
 def test_the_same_hub_reaching_the_floor_is_a_wheel(worker):
     # the hub axis 40 mm up: the hub (r = 40) reaches z = 0, the floor
     model = _hub(worker, 40.0)

@@ -11,7 +11,8 @@ A joint is a **wheel** when all of these hold:
   axis within ``TOL.wheel_axis_deg`` and passes within ``TOL.wheel_centre_mm`` of the joint's
   axis line;
 * the lowest point of its child subtree is within ``TOL.wheel_ground_mm`` of the model's lowest
-  point (the floor of ``model.xml``).
+  point (the floor of ``model.xml``); both exact (the parts' exact boxes, no tessellation), and
+  checked before the roundness, which needs the child's mesh.
 
 Any other continuous joint (a feed hub, a spindle, a fan) is a spinning joint: no free base for
 it, no B4, and B2 sweeps it like any other joint.
@@ -72,20 +73,26 @@ def find_wheels(model, links: dict[str, list[str]], joints: list, subtree, *,
     continuous = [j for j in joints if j.kind.wheel]
     if not continuous:
         return []
-    floor = min(float(p.mesh().vertices[:, 2].min()) for p in model.parts)
+    from .. import kernel
+    lows: dict[str, float] = {}
+
+    def lowest(name: str) -> float:  # the exact lowest point: no tessellation (a long thread's is seconds)
+        if name not in lows:
+            lows[name] = float(kernel.bbox(model.part(name).shape(), optimal=True)[0][2])
+        return lows[name]
+    floor = min(lowest(p.name) for p in model.parts)
     known = (evidence or {}).get("parts", {})
     out = []
     for j in continuous:
         if abs(float(np.asarray(j.axis, float) @ UP)) > math.sin(math.radians(MAX_TILT_DEG)):
             continue  # not rolling on the floor, whatever touches it
+        parts = [p for lk in subtree(j.child) for p in links[lk]]
+        if min(lowest(p) for p in parts) - floor > TOL.wheel_ground_mm:
+            continue  # off the floor: a lead screw, a fan
         child = j.mate.child
         sym = (known[child]["symmetry"] if child in known
                else symmetry_axis(model.part(child).mesh()))
-        if not is_round_about(sym, j.frame[:3, 3], j.axis):
-            continue
-        parts = [p for lk in subtree(j.child) for p in links[lk]]
-        low = min(float(model.part(p).mesh().vertices[:, 2].min()) for p in parts)
-        if low - floor <= TOL.wheel_ground_mm:
+        if is_round_about(sym, j.frame[:3, 3], j.axis):
             out.append(j.name)
     return out
 
