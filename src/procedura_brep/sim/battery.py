@@ -140,7 +140,9 @@ def _load(source: CompiledModel | str | Path, out_dir: Path | None, exported: bo
         pending = None
         try:
             if missing and overlap and _cores() > 1:
-                art = art or articulate(source)  # meshes the parts once, before the fork
+                art = art or articulate(source)
+                for part in source.parts:  # meshed once, before the fork: both sides need them
+                    part.mesh()
                 pending = _Export(source, root, missing, art, b3=b3)
             elif missing:
                 write_bundle(source, root, formats=missing, art=art)
