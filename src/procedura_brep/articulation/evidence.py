@@ -23,6 +23,7 @@ import numpy as np
 
 from ..config import TOL
 from ..kernel import Mesh, bbox
+from ..mates.placement import plane_basis
 from ..program.model import CompiledModel
 
 
@@ -77,14 +78,6 @@ def _planes(tris: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return n, np.einsum("ij,ij->i", n, tris[:, 0]), 0.5 * norm
 
 
-def _basis(n: np.ndarray) -> np.ndarray:
-    """Two unit vectors spanning the plane with normal ``n`` (rows)."""
-    helper = np.array([1.0, 0, 0]) if abs(n[0]) < 0.9 else np.array([0, 1.0, 0])
-    u = np.cross(n, helper)
-    u /= np.linalg.norm(u)
-    return np.stack([u, np.cross(n, u)])
-
-
 def contact_area(a: Mesh, b: Mesh, *, band: float = TOL.contact_mm) -> float:
     """Area (mm^2) where ``a``'s surface lies on ``b``'s surface, face to face.
 
@@ -116,7 +109,7 @@ def contact_area(a: Mesh, b: Mesh, *, band: float = TOL.contact_mm) -> float:
         opp = keep_b & (nb @ na[i] < -TOL.contact_plane_cos) & (np.abs(db + da[i]) <= band)
         if not opp.any():
             continue
-        basis = _basis(na[i])
+        basis = plane_basis(na[i])
         pa = unary_union([Polygon(t @ basis.T) for t in ta[same]])
         pb = unary_union([Polygon(t @ basis.T) for t in tb[opp]])
         total += float(intersection(pa, pb).area)

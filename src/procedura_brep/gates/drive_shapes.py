@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 
 from ..config import TOL
+from ..mates.placement import plane_basis
 
 if TYPE_CHECKING:
     from .coupling import Line
@@ -152,9 +153,7 @@ def helix_leads(shape: Any, line: Line) -> list[tuple[float, float]]:
 
     edge = _cast("Edge")
     d = line.direction
-    u = np.cross(d, [1.0, 0, 0] if abs(d[0]) < 0.9 else [0, 1.0, 0])
-    u /= np.linalg.norm(u)
-    v = np.cross(d, u)
+    u, v = plane_basis(d)
     out = []
     seen: set[bytes] = set()  # the explorer meets an edge once per face
     exp = TopExp_Explorer(shape, TopAbs_EDGE)

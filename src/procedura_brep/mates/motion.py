@@ -34,6 +34,16 @@ def trans(x: float = 0.0, y: float = 0.0, z: float = 0.0) -> np.ndarray:
     return m
 
 
+def plane_basis(n: np.ndarray) -> np.ndarray:
+    """Two unit vectors (rows) spanning the plane normal to the unit ``n``: ``u`` and ``n x u``,
+    with ``n, u, n x u`` right-handed (``u`` made from the world X axis, or Y when ``n`` is
+    near X)."""
+    helper = np.array([1.0, 0, 0]) if abs(n[0]) < 0.9 else np.array([0, 1.0, 0])
+    u = np.cross(n, helper)
+    u /= np.linalg.norm(u)
+    return np.stack([u, np.cross(n, u)])
+
+
 def rigid_inverse(m: np.ndarray) -> np.ndarray:
     """Inverse of a rigid transform (exact transpose of the rotation)."""
     out = np.eye(4)

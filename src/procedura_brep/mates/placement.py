@@ -19,6 +19,7 @@ from .motion import (
     check_linear,
     check_tilt,
     motion_delta,
+    plane_basis,
     rigid_inverse,
     rot_x,
     rot_y,
@@ -30,7 +31,7 @@ from .motion import (
 from .vocabulary import TYPES
 
 __all__ = ["check_linear", "check_tilt", "check_value", "delta", "home_value", "motion_delta",
-           "rigid_inverse", "rot_x", "rot_y", "rot_z", "spherical_delta", "spherical_tilt_deg",
+           "plane_basis", "rigid_inverse", "rot_x", "rot_y", "rot_z", "spherical_delta", "spherical_tilt_deg",
            "trans"]
 
 

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..config import TOL
+from ..mates.placement import plane_basis
 
 #: Two directions are parallel (and a point is on an axis) within these tolerances.
 PARALLEL_EPS = 1e-9
@@ -343,9 +344,7 @@ def radial_range(tris: np.ndarray, devs: np.ndarray, point: np.ndarray, axis: np
         return math.inf, -math.inf
     a = np.asarray(axis, float) / np.linalg.norm(axis)
     rel = np.asarray(tris, float) - np.asarray(point, float)
-    e1 = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
-    e1 /= np.linalg.norm(e1)
-    e2 = np.cross(a, e1)
+    e1, e2 = plane_basis(a)
     p = np.stack([rel @ e1, rel @ e2], axis=-1)  # (n, 3, 2): the triangles across the line
     far = float((np.linalg.norm(p, axis=-1).max(axis=1) + devs).max())
     near = nearest_to_origin(p) - devs

@@ -99,7 +99,7 @@ from ..articulation.tree import Articulation, Joint
 from ..config import TOL
 from ..gates.geometry import box_pairs
 from ..mates.kinds import CONTINUOUS, PRISMATIC, REVOLUTE, Motion
-from ..mates.placement import motion_delta, rigid_inverse, rot_x, rot_z, trans
+from ..mates.placement import motion_delta, plane_basis, rigid_inverse, rot_x, rot_z, trans
 from ..program.model import CompiledModel
 from .cells import (
     Cover,
@@ -1194,10 +1194,8 @@ def trans_z(z: float) -> np.ndarray:
 def _to_z(direction: np.ndarray) -> np.ndarray:
     """A rotation (4x4) taking the world unit ``direction`` to +Z."""
     z = np.asarray(direction, float)
-    x = np.cross(z, [1.0, 0, 0] if abs(z[0]) < 0.9 else [0, 1.0, 0])
-    x /= np.linalg.norm(x)
     rot = np.eye(4)
-    rot[:3, :3] = np.array([x, np.cross(z, x), z])  # rows: world -> frame with z = direction
+    rot[:3, :3] = np.vstack([plane_basis(z), z])  # rows: world -> frame with z = direction
     return rot
 
 
