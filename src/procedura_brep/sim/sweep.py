@@ -563,16 +563,12 @@ class SweepScene:
             if overlap < TOL.sim_penetration_mm:
                 return True
             # pair by pair: the common lies where some near pair's heights overlap
-            lo = np.maximum(lo_a[pairs[:, 0]], lo_b[pairs[:, 1]])
-            hi = np.minimum(hi_a[pairs[:, 0]], hi_b[pairs[:, 1]])
-            if _thin_union(lo, hi, TOL.sim_penetration_mm):
+            if _thin_union(*_overlaps(pairs, (lo_a, hi_a), (lo_b, hi_b)), TOL.sim_penetration_mm):
                 return True
             # the curved faces' triangles widened by their deviation: their faces' exact heights
-            lo_a, hi_a = self._face_heights(a, fa, da, d, lo_a, hi_a)
-            lo_b, hi_b = self._face_heights(b, fb, db, d, lo_b, hi_b)
-            lo = np.maximum(lo_a[pairs[:, 0]], lo_b[pairs[:, 1]])
-            hi = np.minimum(hi_a[pairs[:, 0]], hi_b[pairs[:, 1]])
-            if _thin_union(lo, hi, TOL.sim_penetration_mm):
+            if _thin_union(*_overlaps(pairs, self._face_heights(a, fa, da, d, lo_a, hi_a),
+                                      self._face_heights(b, fb, db, d, lo_b, hi_b)),
+                           TOL.sim_penetration_mm):
                 return True
         return False
 
@@ -1208,6 +1204,14 @@ def _heights(tris: np.ndarray, devs: np.ndarray, axes: np.ndarray, d: np.ndarray
     h = tris @ d
     e = devs * np.sqrt(np.clip(1.0 - (axes @ d) ** 2, 0.0, 1.0))
     return (np.maximum(h.min(axis=1) - e, extent[0]), np.minimum(h.max(axis=1) + e, extent[1]))
+
+
+def _overlaps(pairs: np.ndarray, a: tuple[np.ndarray, np.ndarray],
+              b: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) of the overlap of the height ranges ``a`` = (lo, hi) and ``b`` for each index
+    pair (i, j) in ``pairs`` (``hi < lo``: they do not overlap)."""
+    return (np.maximum(a[0][pairs[:, 0]], b[0][pairs[:, 1]]),
+            np.minimum(a[1][pairs[:, 0]], b[1][pairs[:, 1]]))
 
 
 def _thin_union(lo: np.ndarray, hi: np.ndarray, thick: float) -> bool:
