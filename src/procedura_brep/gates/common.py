@@ -59,6 +59,7 @@ MIN_COMMON_MM3: float = 1e-9
 _COMMON: LRU = LRU()
 _FACES: LRU = LRU()
 _TILES: LRU = LRU()  # (part digest, halving path) -> (the part's tile, its face count)
+_REGIONS: LRU = LRU()  # part digest -> how many regions :func:`_trimmed` has cut it to
 
 
 @dataclass
@@ -266,9 +267,7 @@ def _trimmed(geo: PartGeometry, shape: Any, lo: np.ndarray, hi: np.ndarray) -> A
     reach = float((fhi - flo)[meet].max(initial=0.0))
     if reach * TRIM_FRACTION <= float(np.max(hi - lo)):
         return shape  # the faces there end near it (a wheel's hub bore): OCCT skips the rest by their boxes
-    uses = int(_TILES.get((geo.digest, "uses")) or 0) + 1
-    _TILES.put((geo.digest, "uses"), uses)
-    if uses <= DIRECT_CROPS:
+    if _REGIONS.put(geo.digest, int(_REGIONS.get(geo.digest) or 0) + 1) <= DIRECT_CROPS:
         return crop(shape, lo, hi)
     tile_lo, tile_hi, tile, path = np.array(geo.lo, float), np.array(geo.hi, float), shape, ""
     for _ in range(TILE_DEPTH):
@@ -407,7 +406,8 @@ def _pierced(solid: Any, frame: np.ndarray, z0: float, z1: float) -> bool:
 
 
 def clear() -> None:
-    """Forget cached commons, face boxes and tiles."""
+    """Forget cached commons, face boxes, tiles and region counts."""
     _COMMON.clear()
     _FACES.clear()
     _TILES.clear()
+    _REGIONS.clear()
