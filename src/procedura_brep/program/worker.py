@@ -13,6 +13,7 @@ Run as ``python -m procedura_brep.program.worker``.
 
 from __future__ import annotations
 
+import functools
 import importlib.abc
 import importlib.machinery
 import json
@@ -333,9 +334,14 @@ def _stub_unused_imports() -> None:
 
 class _StandInType(type):
     def __getattr__(cls, attr: str) -> Any:
-        if attr.startswith("__"):
-            raise AttributeError(attr)
-        return _stand_in(f"{cls.__qualname__}.{attr}")
+        return _member(cls.__qualname__, attr)
+
+
+def _member(owner: str, attr: str) -> type:
+    """The stand-in for ``owner.attr`` (dunder lookups are left to Python's defaults)."""
+    if attr.startswith("__"):
+        raise AttributeError(attr)
+    return _stand_in(f"{owner}.{attr}")
 
 
 def _stand_in(name: str) -> type:
@@ -357,12 +363,7 @@ class _Unused(importlib.abc.MetaPathFinder, importlib.abc.Loader):
         import types
         module = types.ModuleType(spec.name)
         module.__path__ = []  # a package: its submodules come here too
-
-        def attribute(attr: str, _name: str = spec.name) -> Any:
-            if attr.startswith("__"):
-                raise AttributeError(attr)
-            return _stand_in(f"{_name}.{attr}")
-        module.__getattr__ = attribute  # type: ignore[method-assign]  # PEP 562 module attribute
+        module.__getattr__ = functools.partial(_member, spec.name)  # type: ignore[method-assign]  # PEP 562
         return module
 
     def exec_module(self, module: Any) -> None:
