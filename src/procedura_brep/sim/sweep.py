@@ -358,10 +358,7 @@ class SweepScene:
         """Exact (min, max) of the placed part along a world unit ``direction``."""
         key = (name, np.round(direction, 12).tobytes())
         if key not in self._extent:
-            p = self.model.part(name)
-            lo, hi = kernel.bbox(kernel.located(p.local_shape(), _to_z(direction) @ p.placement),
-                                 optimal=True)
-            self._extent[key] = (lo[2], hi[2])
+            self._extent[key] = _height_range(self.model.part(name).shape(), direction)
         return self._extent[key]
 
     def _overlap(self, a: str, ma: np.ndarray, b: str, where: str = "rest") -> Overlap:
@@ -588,8 +585,7 @@ class SweepScene:
         """Exact (min, max) along a world unit ``d`` of face ``k`` of the placed part."""
         key = (name, k, np.round(d, 12).tobytes())
         if key not in self._extent_face:
-            lo, hi = kernel.bbox(kernel.located(self._faces[name][k].face, _to_z(d)), optimal=True)
-            self._extent_face[key] = (lo[2], hi[2])
+            self._extent_face[key] = _height_range(self._faces[name][k].face, d)
         return self._extent_face[key]
 
     def orbit_cells(self, joint: Joint, a: str, b: str, side: int = 0) -> tuple[np.ndarray, float]:
@@ -1187,12 +1183,14 @@ def trans_z(z: float) -> np.ndarray:
     return trans(z=z)
 
 
-def _to_z(direction: np.ndarray) -> np.ndarray:
-    """A rotation (4x4) taking the world unit ``direction`` to +Z."""
+def _height_range(shape, direction: np.ndarray) -> tuple[float, float]:
+    """Exact (min, max) of the located ``shape`` along the world unit ``direction`` (its
+    optimal box in a frame whose Z is ``direction``)."""
     z = np.asarray(direction, float)
     rot = np.eye(4)
     rot[:3, :3] = np.vstack([plane_basis(z), z])  # rows: world -> frame with z = direction
-    return rot
+    lo, hi = kernel.bbox(kernel.located(shape, rot), optimal=True)
+    return lo[2], hi[2]
 
 
 def _heights(tris: np.ndarray, devs: np.ndarray, axes: np.ndarray, d: np.ndarray,
