@@ -150,9 +150,19 @@ def segment_distance(shape: Shape, p0: np.ndarray, p1: np.ndarray) -> float:
 def solids(shape: Shape) -> list[Shape]:
     """The solids of ``shape`` (a compound, a solid ...), in explorer order; empty if none."""
     from OCP.TopAbs import TopAbs_SOLID
+    return _explore(shape, TopAbs_SOLID)
+
+
+def faces(shape: Shape) -> list[Shape]:
+    """The faces of ``shape``, in explorer order, each cast to a ``TopoDS_Face``."""
+    o = _ocp()
+    return [_face(o["TopoDS"], f) for f in _explore(shape, o["TopAbs"].TopAbs_FACE)]
+
+
+def _explore(shape: Shape, kind: Any) -> list[Shape]:
     from OCP.TopExp import TopExp_Explorer
     out: list[Shape] = []
-    exp = TopExp_Explorer(shape, TopAbs_SOLID)
+    exp = TopExp_Explorer(shape, kind)
     while exp.More():
         out.append(exp.Current())
         exp.Next()

@@ -159,17 +159,9 @@ def face_count(geo: PartGeometry) -> int:
 
 
 def _boxes_of_faces(shapes: list[Any]) -> tuple[np.ndarray, np.ndarray]:
-    from OCP.TopAbs import TopAbs_FACE
-    from OCP.TopExp import TopExp_Explorer
-
     from .. import kernel
 
-    out = []
-    for s in shapes:
-        exp = TopExp_Explorer(s, TopAbs_FACE)
-        while exp.More():
-            out.append(kernel.bbox(exp.Current(), optimal=False))
-            exp.Next()
+    out = [kernel.bbox(f, optimal=False) for s in shapes for f in kernel.faces(s)]
     if not out:
         return np.zeros((0, 3)), np.zeros((0, 3))
     arr = np.asarray(out, float)
@@ -296,14 +288,8 @@ def _trimmed(geo: PartGeometry, shape: Any, lo: np.ndarray, hi: np.ndarray) -> A
 
 
 def _face_total(shape: Any) -> int:
-    from OCP.TopAbs import TopAbs_FACE
-    from OCP.TopExp import TopExp_Explorer
-
-    n, exp = 0, TopExp_Explorer(shape, TopAbs_FACE)
-    while exp.More():
-        n += 1
-        exp.Next()
-    return n
+    from .. import kernel
+    return len(kernel.faces(shape))
 
 
 def _first_line(exc: BaseException) -> str:

@@ -75,15 +75,11 @@ def coaxial_cylinders(shape: Any, line: Line) -> list[tuple[float, float, float]
     from OCP.BRepAdaptor import BRepAdaptor_Surface
     from OCP.BRepTools import BRepTools
     from OCP.GeomAbs import GeomAbs_Cylinder
-    from OCP.TopAbs import TopAbs_FACE
-    from OCP.TopExp import TopExp_Explorer
 
-    face = _cast("Face")
+    from .. import kernel
+
     out = []
-    exp = TopExp_Explorer(shape, TopAbs_FACE)
-    while exp.More():
-        f = face(exp.Current())
-        exp.Next()
+    for f in kernel.faces(shape):
         surf = BRepAdaptor_Surface(f)
         if surf.GetType() != GeomAbs_Cylinder:
             continue
