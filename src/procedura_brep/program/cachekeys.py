@@ -7,13 +7,16 @@ A part's key (:func:`part_keys`) hashes:
   its final solid);
 * the part's own function: its ``def`` through its last line, its other decorators, its
   default arguments and closure cells, and the ``@part`` options that are not
-  :data:`UNKEYED_OPTIONS`;
+  :data:`UNKEYED_OPTIONS`; not its name (nor the part's): parts whose functions differ only
+  in name (``wheel_fl``, ``wheel_rl``: ``return wheel(1)``) share a key, so the store holds
+  their solid once and a compile builds it once (:mod:`.runtime`, twins);
 * everything the function reads by name, transitively (``_Keyer.walk``): the source and state of
   every program function and class it calls or references (helper -> helper -> ...), a
   class's program base classes, and the values of the params and other plain module-level
   constants (numbers, strings, tuples/lists/dicts of them) any of those read;
-* every mate that adds a feature to it, in declaration order: mate name, its role (child or
-  parent), type, nominal value, fit, options and this part's frame matrix.
+* every mate that adds a feature to it, in declaration order: its role (child or parent),
+  type, nominal value, fit, options and this part's frame matrix (not the mate's name, which
+  reaches no solid).
 
 ``@paint`` regions are in no key: a painted part's key (and the cache entry) is its unpainted
 solid's, and :mod:`procedura_brep.program.blocks` cuts the blocks after the solid is loaded.
@@ -48,6 +51,7 @@ from __future__ import annotations
 import ast
 import hashlib
 import math
+import re
 import types
 from dataclasses import dataclass, field
 from functools import cache, lru_cache
@@ -380,7 +384,7 @@ def _mate_rows(mates: list[dict[str, Any]], only: set[str] | None) -> dict[str, 
                 if only is None or getattr(d, r) in only]
         if not ends:
             continue
-        common = repr((d.name, m["type"].name, m["d"], sorted(m["fit"].as_dict().items()),
+        common = repr((m["type"].name, m["d"], sorted(m["fit"].as_dict().items()),
                        sorted(m["options"].items())))
         for role, frame in ends:
             rows.setdefault(getattr(d, role), []).append(
@@ -413,8 +417,8 @@ def part_keys(source: str, reg: Registry, params: dict[str, Any], mates: list[di
         if only is not None and name not in only:
             continue
         code = decl.fn.__code__
-        parts = [engine_digest(), f"part {name}", _decl_options(decl),
-                 keyer.text(code, skip_part=True), *whole]
+        parts = [engine_digest(), _decl_options(decl),
+                 _unnamed(keyer.text(code, skip_part=True), code.co_name), *whole]
         keyer.volatile = False
         if not (keyer.state(decl.fn, parts) & keyer.walk(code, set(), parts)):
             keys[name] = ""  # reads module state that is not hashable: never cached
@@ -424,6 +428,12 @@ def part_keys(source: str, reg: Registry, params: dict[str, Any], mates: list[di
         parts += rows.get(name, [])
         keys[name] = hashlib.sha256("\n".join(parts).encode()).hexdigest()
     return keys
+
+
+def _unnamed(text: str, name: str) -> str:
+    """A part function's text with its own name left out of its ``def`` line: the name reaches
+    no solid (a function that calls itself reads its name, which its key then hashes)."""
+    return re.sub(rf"\bdef\s+{re.escape(name)}\s*\(", "def (", text, count=1)
 
 
 def params_read(code: types.CodeType, glb: dict[str, Any], params: dict[str, Any],

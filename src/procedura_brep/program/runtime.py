@@ -126,12 +126,16 @@ class _Build:
 
 
 def compile_program(source: str, *, name: str = "model", cache_dir: str | int | None = None,
-                    limits: SandboxLimits = SANDBOX, only: frozenset[str] | None = None) -> CompiledModel:
+                    limits: SandboxLimits = SANDBOX, share: tuple[int, int] | None = None) -> CompiledModel:
     """Compile ``source`` in this process. Call only inside the sandbox child.
 
-    With ``only`` (a prebuild, one share of a parallel cold compile: see
+    With ``share`` = (i, n) (a prebuild, share i of n of a parallel cold compile: see
     :meth:`~procedura_brep.program.sandbox.Worker.compile`), build just the final solids of
-    those parts that the cache lacks and return them for the cache (see :func:`_prebuilt`).
+    this share of the parts that the cache lacks and return them for the cache (see
+    :func:`_prebuilt`).
+
+    Twins (parts with the same key, :func:`_twins`) are built once: the first in plan order is
+    run, the others take its final solid.
     """
     b = _Build(source, name)
     b.limits = limits
@@ -180,12 +184,14 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     t = _lap(b, "keys_s", t)
     hits = _load_cached(b, part_keys, cache_dir, painted={d.part for d in reg.paints})
     t = _lap(b, "cache_s", t)
-    if only is not None:
-        return _prebuilt(b, reg, hits, params, glb, mates, part_keys, volatile, only, t0)
-    _eval_parts(b, reg, hits, params, glb)
+    twins = _twins(reg, part_keys, volatile, hits)
+    if share is not None:
+        return _prebuilt(b, reg, hits, params, glb, mates, part_keys, volatile, twins, share, t0)
+    _eval_parts(b, reg, hits, params, glb, skip=twins.keys())
     t = _lap(b, "parts_s", t)
-    contextvars.Context().run(_apply_features, b, reg, mates, hits)
+    contextvars.Context().run(_apply_features, b, reg, mates, hits | twins.keys())
     t = _lap(b, "features_s", t)
+    _adopt_twins(b, reg, mates, twins, params, glb)
     _place(b, reg, mates)
     t = _lap(b, "place_s", t)
     painted = blocks.apply_paint(b, reg, mates)  # colour blocks, cut after features and caching
@@ -211,17 +217,65 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     return model
 
 
+def _twins(reg: registry.Registry, keys: dict[str, str], volatile: set[str],
+           hits: AbstractSet[str]) -> dict[str, str]:
+    """Part -> the earlier part (plan order) with the same key, for the parts the cache lacks:
+    the same function text but for its name, reading the same values, given the same mate
+    features (``wheel_fl`` and ``wheel_rl`` both ``return wheel(1)``), so the same solid. A
+    part without a key or whose key hashed a mutable module value (``volatile``) has no twin:
+    its solid could depend on what ran before it."""
+    first: dict[str, str] = {}
+    twins: dict[str, str] = {}
+    for n in reg.parts:
+        k = keys.get(n, "")
+        if not k or n in volatile or n in hits:
+            continue
+        if k in first:
+            twins[n] = first[k]
+        else:
+            first[k] = n
+    return twins
+
+
+def _adopt_twins(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]],
+                 twins: dict[str, str], params: dict[str, Any], glb: dict[str, Any]) -> None:
+    """Give each twin the final solid of the part it repeats (one object: placement moves a
+    carrier, paint replaces the entry, serialising writes it once). A twin whose first failed
+    (a finding names that part or one of its mates) is run on its own, so that its own
+    findings name it."""
+    failed_parts = {f.part for f in b.findings if f.part}
+    failed_mates = {f.mate for f in b.findings if f.mate}
+    for m in mates:
+        if m["decl"].name in failed_mates:
+            failed_parts |= {m["decl"].child, m["decl"].parent}
+    redo: set[str] = set()
+    for twin, first in twins.items():
+        if first in b.solids and first not in failed_parts:
+            b.solids[twin] = b.solids[first]
+            b.figures[twin] = b.figures[first]
+        else:
+            redo.add(twin)
+    if redo:
+        others = set(reg.parts) - redo
+        _eval_parts(b, reg, set(), params, glb, skip=others)
+        contextvars.Context().run(_apply_features, b, reg, mates, others)
+
+
 def _prebuilt(b: _Build, reg: registry.Registry, hits: set[str], params: dict[str, Any],
               glb: dict[str, Any], mates: list[dict[str, Any]], part_keys: dict[str, str],
-              volatile: set[str], only: frozenset[str], t0: float) -> CompiledModel:
-    """The parts of ``only`` that the cache lacks, each run and given its mate features, as
-    unplaced parts under their keys (no placement, caps of the whole or paint: the compile that
-    follows does those, with every part a cache hit). A part is left out when its key is
-    empty or hashed a mutable module value (``volatile``): its solid could depend on which
-    other parts ran before it, and here only a share of them run."""
+              volatile: set[str], twins: dict[str, str], share: tuple[int, int],
+              t0: float) -> CompiledModel:
+    """Share ``i`` of ``n`` (``share``) of the parts that the cache lacks, each run and given
+    its mate features, as unplaced parts under their keys (no placement, caps of the whole or
+    paint: the compile that follows does those, with every part a cache hit). The parts to
+    build are dealt round robin in plan order, one per key (a twin is found in the cache under
+    its first's key). A part is left out when its key is empty or hashed a mutable module value
+    (``volatile``): its solid could depend on which other parts ran before it, and here only a
+    share of them run."""
     from .. import kernel
-    todo = {n for n in only if n in reg.parts and n not in hits and part_keys.get(n)
-            and n not in volatile}
+    i, n = share
+    todo = set([p for p in reg.parts if p not in hits and p not in twins and part_keys.get(p)
+                and p not in volatile][i::n])
     rest = set(reg.parts) - todo
     _eval_parts(b, reg, rest, params, glb, skip=rest)
     contextvars.Context().run(_apply_features, b, reg, mates, rest)
@@ -566,11 +620,16 @@ def _serialise(b: _Build, reg: registry.Registry, params: dict[str, Any],
                mates: list[dict[str, Any]], total: float, keys: dict[str, str]) -> CompiledModel:
     from .. import kernel
     parts: list[CompiledPart] = []
+    written: dict[int, bytes] = {}  # id(solid) -> its BRep: twins share one solid, written once
     for name, decl in reg.parts.items():
         if name not in b.solids or name not in b.world:
             continue
         frames = {k: loc_matrix(v) for k, v in reg.frames.get(name, {}).items()}
-        brep = b.cached_bytes.get(name) or kernel.write_brep(kernel.bake_location(b.solids[name].wrapped))
+        brep = b.cached_bytes.get(name)
+        if not brep:
+            solid = b.solids[name]
+            brep = written.get(id(solid)) or kernel.write_brep(kernel.bake_location(solid.wrapped))
+            written[id(solid)] = brep
         parts.append(CompiledPart(name=name, brep=brep,
                                   placement=b.world[name], frames=frames, material=decl.material,
                                   detail=decl.detail, description=decl.description,

@@ -230,10 +230,11 @@ class Worker:
     def _prebuild(self, proc: subprocess.Popen[str], source: str, options: CompileOptions) -> int:
         """A parallel cold compile: a worker's first compile of a program of at least
         ``2 * PREBUILD_SHARE`` parts runs first in up to :data:`PREBUILD_JOBS` children at
-        once (one per core), each building the final solids of its share of the parts (round
-        robin in plan order) for the part cache; the compile proper then finds every part
-        there. The shares are gated by nothing: a part that fails in its share is not stored
-        and fails again, with its finding, in the compile proper. A share that is killed or
+        once (one per core), each building the final solids of its share of the parts for the
+        part cache (dealt round robin in plan order among the parts the store lacks, one part
+        per key: twins are built once); the compile proper then finds every part there. The
+        shares are gated by nothing: a part that fails in its share is not stored and fails
+        again, with its finding, in the compile proper. A share that is killed or
         times out is the compile's error (the compile proper would end the same way).
         Returns how many parts the shares built (not loaded from the store)."""
         from .cache import store_model
@@ -251,7 +252,7 @@ class Worker:
             reply = self._ask(proc, {
                 "id": next(self._ids), "op": "prebuild", "source": source, "name": options.name,
                 "limits": asdict(options.limits), "cache_dir": self.cache_dir,
-                "jobs": [{"scratch": s, "only": names[i::jobs]} for i, s in enumerate(scratches)]})
+                "jobs": [{"scratch": s} for s in scratches]})
             rows = reply.get("jobs")
             for i, scratch in enumerate(scratches):
                 row = rows[i] if isinstance(rows, list) and i < len(rows) and isinstance(rows[i], dict) else {}

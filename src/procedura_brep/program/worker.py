@@ -115,9 +115,9 @@ def _child(req: dict[str, Any], done: int | None = None) -> None:
     try:
         from ..config import SandboxLimits
         limits = SandboxLimits(**req["limits"])
-        only = frozenset(req["only"]) if req.get("only") is not None else None
+        share = (int(req["share"][0]), int(req["share"][1])) if req.get("share") is not None else None
         model = compile_program(req["source"], name=req.get("name", "model"), cache_dir=cache_fd,
-                                limits=limits, only=only)
+                                limits=limits, share=share)
         payload = to_json(model, by_key=cache_fd is not None)  # cached solids: by key
     except MemoryError:
         payload = {"fatal": Finding("memory", "the program ran out of memory (address-space limit "
@@ -224,13 +224,14 @@ def _run_one(req: dict[str, Any], spare: _Spare | None = None) -> dict[str, Any]
 
 
 def _prebuild(req: dict[str, Any], spare: _Spare | None) -> dict[str, Any]:
-    """One child per job (``{"scratch", "only"}``), all at once, under one wall-clock limit:
-    the shares of a parallel cold compile. Replies with each job's status, in order."""
+    """One child per job (``{"scratch"}``), all at once, under one wall-clock limit: the
+    shares of a parallel cold compile (job i builds share (i, number of jobs)). Replies with
+    each job's status, in order."""
     t0 = time.monotonic()
     children = []
     for i, job in enumerate(req["jobs"]):
         children.append(_start({**req, "op": "compile", "scratch": job["scratch"],
-                                "only": job["only"]}, spare if i == 0 else None))
+                                "share": [i, len(req["jobs"])]}, spare if i == 0 else None))
     wall = float(req["limits"]["wall_s"])
     jobs = [{"status": "error", "detail": "the compile child did not start"} if child is None
             else _finish(child, t0, wall) for child in children]
