@@ -312,6 +312,14 @@ def tessellate(shape: Shape, *, linear: float | None = None, angular: float = TO
     return mesh
 
 
+def placed_mesh(mesh: Mesh, placement: np.ndarray) -> Mesh:
+    """``mesh`` moved by the 4x4 rigid ``placement`` (a mirror reverses the triangles, so the
+    faces stay outward)."""
+    m = np.asarray(placement, dtype=float)
+    faces = mesh.faces if np.linalg.det(m[:3, :3]) > 0 else mesh.faces[:, ::-1].copy()
+    return Mesh(mesh.vertices @ m[:3, :3].T + m[:3, 3], faces)
+
+
 def clean_mesh(vertices: np.ndarray, faces: np.ndarray, *, weld: float = TOL.mesh_weld_mm,
                min_area: float = TOL.degenerate_area_mm2) -> Mesh:
     """Weld vertices closer than ``weld`` and drop triangles with area below ``min_area``."""

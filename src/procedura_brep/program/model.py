@@ -28,6 +28,10 @@ if TYPE_CHECKING:
 
 _MESHES: dict[str, Any] = {}
 _MESH_CACHE_SIZE = 512
+#: Part-local meshes by the sha256 of the BRep bytes: parts of the same local geometry (twins,
+#: :func:`procedura_brep.program.runtime._twins`: six identical wheels) are tessellated once,
+#: each world mesh is the local one moved by its placement.
+_LOCAL_MESHES: dict[str, Any] = {}
 #: Local shapes read back from BRep bytes, by part name and the bytes' sha256: a part that
 #: comes back unchanged from the next compile (a cache hit) is not read again. Two parts of
 #: one model never share a shape (the STEP writer would make identical parts one shape).
@@ -38,6 +42,7 @@ _SHAPES: dict[str, Any] = {}
 def clear_mesh_cache() -> None:
     """Forget every cached part mesh and shape (tests, memory)."""
     _MESHES.clear()
+    _LOCAL_MESHES.clear()
     _SHAPES.clear()
 
 
@@ -119,17 +124,32 @@ class CompiledPart:
         """The part's world mesh (mm) with the tessellation settings of ``config.TOL`` (linear
         deflection scaled with the part's size, see :func:`procedura_brep.kernel.tessellate`).
 
-        Shared by gates, exports and renders through a digest-keyed cache, so each geometry is
-        tessellated once per process.
+        Shared by gates, exports and renders through a digest-keyed cache; the local mesh it
+        moves is shared by the parts of the same local geometry (:meth:`local_mesh`), so each
+        geometry is tessellated once per process.
         """
         key = self.digest
         hit: Mesh | None = _MESHES.get(key)
         if hit is None:
             from .. import kernel
-            hit = kernel.tessellate(self.shape(), name=self.name)
+            hit = kernel.placed_mesh(self.local_mesh(), self.placement)
             if len(_MESHES) >= _MESH_CACHE_SIZE:
                 _MESHES.pop(next(iter(_MESHES)))
             _MESHES[key] = hit
+        return hit
+
+    def local_mesh(self) -> Mesh:
+        """The part's mesh in its own frame (mm), cached by its BRep bytes: a twin's is the
+        same mesh. Tessellated from the local shape, as OCCT meshes a located shape (on its
+        faces' own geometry), so a placement changes no triangle."""
+        key = self._brep_hash().hexdigest()
+        hit: Mesh | None = _LOCAL_MESHES.get(key)
+        if hit is None:
+            from .. import kernel
+            hit = kernel.tessellate(self.local_shape(), name=self.name)
+            if len(_LOCAL_MESHES) >= _MESH_CACHE_SIZE:
+                _LOCAL_MESHES.pop(next(iter(_LOCAL_MESHES)))
+            _LOCAL_MESHES[key] = hit
         return hit
 
     def world_frame(self, frame: str) -> np.ndarray:
