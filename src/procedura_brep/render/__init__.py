@@ -21,6 +21,7 @@ from .api import (  # noqa: E402 - after ensure_headless(): GL picks EGL
                   render_images,
                   render_to_dir,
                   resolve_focus,
+                  sheet_image,
 )
 from .cache import ViewStatus, geometry_key, views_status  # noqa: E402 - after ensure_headless(): GL picks EGL
 from .palette import PALETTE, part_colors  # noqa: E402 - after ensure_headless(): GL picks EGL
@@ -29,4 +30,4 @@ from .views import DEFAULT_VIEWS, VIEWS, View, fit_camera, parse_views  # noqa: 
 __all__ = ["CLOSE_UP_VIEWS", "DEFAULT_VIEWS", "MODES", "PALETTE", "VIEWS", "Focus", "RenderResult",
            "View", "ViewStatus", "ensure_headless", "fit_camera", "geometry_key", "legend_of",
            "parse_views", "part_colors", "part_frames", "render_images", "render_to_dir",
-           "resolve_focus", "views_status"]
+           "resolve_focus", "sheet_image", "views_status"]

@@ -176,6 +176,27 @@ def render_images(model: CompiledModel, views: str | list[str] | None = None, *,
     return out
 
 
+def sheet_image(model: CompiledModel, views: list[str], *, mode: Mode = "pbr",
+                size: int = 384) -> Image.Image:
+    """The contact sheet of ``views`` in memory (the ``sheet`` of :func:`render_to_dir`, pixel
+    for pixel), without writing the views: what a build ships as ``sheet.png``."""
+    images = render_images(model, views, mode=mode, size=size)
+    return _sheet_of(model, [(v, images[v]) for v in views], mode, None)
+
+
+def _sheet_of(model: CompiledModel, imgs: list[tuple[str, Image.Image]], mode: Mode,
+              focus: str | None) -> Image.Image:
+    """The contact sheet of ``imgs`` (view name, image) with its title and legend."""
+    # the legend the sheet's own colours need: none for clay (one grey for all)
+    legend = legend_of(model, mode) if mode != "clay" else []
+    if focus is not None:
+        shown = resolve_focus(model, focus).parts
+        legend = [(n, c) for n, c in legend if n.split(" (")[0] in shown]
+    title = f"{model.name}  mode={mode}" + (f"  close-up: {focus}" if focus else "")
+    heading = "legend (material base colours)" if mode == "pbr" else "legend (part colours)"
+    return compose.contact_sheet(imgs, title=title, legend=legend, heading=heading)
+
+
 def legend_of(model: CompiledModel, mode: Mode = "parts") -> list[tuple[str, RGB]]:
     """(label, colour) for every part, in model order, as the ``mode``'s images show it: the
     part's palette colour (``parts``), or ``part (material)`` with the material's base colour
@@ -288,14 +309,7 @@ def render_to_dir(model: CompiledModel, out_dir: str | Path, *, views: str | lis
             else:
                 imgs = [(v, images[v] if v in images else Image.open(out / files[v]).convert("RGB"))
                         for v in vnames]
-                # the legend the sheet's own colours need: none for clay (one grey for all)
-                legend = legend_of(model, mode) if mode != "clay" else []
-                if focus is not None:
-                    shown = resolve_focus(model, focus).parts
-                    legend = [(n, c) for n, c in legend if n.split(" (")[0] in shown]
-                title = f"{model.name}  mode={mode}" + (f"  close-up: {focus}" if focus else "")
-                heading = "legend (material base colours)" if mode == "pbr" else "legend (part colours)"
-                compose.contact_sheet(imgs, title=title, legend=legend, heading=heading).save(out / sheet_file)
+                _sheet_of(model, imgs, mode, focus).save(out / sheet_file)
                 man.images[sheet_file] = {"key": skey, "geometry": geo, "mode": mode, "size": size,
                                           "focus": focus}
                 res.rendered.append(sheet_label)

@@ -252,16 +252,10 @@ def sheet(model: CompiledModel, root: Path, *, timings: dict[str, float] | None 
 
     Draws in this process: a caller that inherited a GL context from a forking parent (see
     :func:`gl_in_use`) must draw it in that parent instead."""
-    import shutil
-    import tempfile
-
-    from ..render import render_to_dir
+    from ..render import sheet_image
     t = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix=".sheet-", dir=root) as tmp:
-        res = render_to_dir(model, tmp, views=list(SHEET_VIEWS), mode="pbr", size=SHEET_SIZE,
-                            sheet=True)
-        dest = root / "sheet.png"
-        shutil.move(str(res.paths["sheet"]), dest)
+    dest = root / "sheet.png"
+    sheet_image(model, list(SHEET_VIEWS), mode="pbr", size=SHEET_SIZE).save(dest)
     if timings is not None:
         timings["sheet_s"] = time.perf_counter() - t
     return dest
