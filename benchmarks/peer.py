@@ -1,0 +1,93 @@
+"""Cold call against a peer (issue 24 item 2): our cold ``build`` of the 3-part lamp against
+mini-articraft's cold compile of its 2-part hinged box, in alternating pairs.
+
+Ours: ``procedura-brep build tests/program/lamp.py -o DIR -q`` in a fresh process with the part
+store empty (``PROCEDURA_BREP_CACHE=off``) and no server: compile, gates, STEP, OBJ, GLB, USD,
+URDF, MJCF, the viewer and ``sheet.png``.
+
+The peer: its documented cold path, ``python -m mini_articraft.environments.worker RUN`` with
+``RUN/workspace/main.py`` its ``examples/hinged_box/main.py``: the model, its tests, its
+compiler checks (the hinge sweep among them) and its USDZ, validated. The peer is not on PyPI
+and is not part of this repository: pass the folder that holds it (``src/mini_articraft``, a
+``.venv`` with its dependencies, ``examples/hinged_box/main.py``) as ``--peer``.
+
+Both sides run with bytecode caching on (``PYTHONDONTWRITEBYTECODE`` unset, as on a user's
+machine), after one untimed run each. Wall time is the figure; CPU is user+sys of the waited-for
+child processes (a process a side leaves to die unwaited is not counted).
+
+Run: ``python benchmarks/peer.py --peer /tmp/peer [--pairs 7]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+LAMP = ROOT / "tests" / "program" / "lamp.py"
+
+
+def timed(cmd: list[str], env: dict[str, str]) -> tuple[float, float]:
+    """(wall s, CPU s) of one run of ``cmd``; raises on a failed run."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t = time.perf_counter()
+    done = subprocess.run(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    wall = time.perf_counter() - t
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if done.returncode != 0:
+        raise SystemExit(f"{' '.join(cmd[:4])} ... failed ({done.returncode}): {done.stderr[-2000:]}")
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def ours(tmp: Path) -> tuple[float, float]:
+    out = tmp / "ours"
+    shutil.rmtree(out, ignore_errors=True)
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env.update(PROCEDURA_BREP_SERVER="off", PROCEDURA_BREP_CACHE="off")
+    exe = shutil.which("procedura-brep") or sys.exit("procedura-brep is not on PATH")
+    return timed([exe, "build", str(LAMP), "-o", str(out), "-q"], env)
+
+
+def peer(tmp: Path, folder: Path) -> tuple[float, float]:
+    run = tmp / "peer"
+    shutil.rmtree(run, ignore_errors=True)
+    (run / "workspace").mkdir(parents=True)
+    shutil.copy(folder / "examples" / "hinged_box" / "main.py", run / "workspace" / "main.py")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env["PYTHONPATH"] = str(folder / "src")
+    return timed([str(folder / ".venv" / "bin" / "python"), "-m", "mini_articraft.environments.worker",
+                  str(run)], env)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--peer", type=Path, required=True, help="the folder holding mini-articraft")
+    ap.add_argument("--pairs", type=int, default=7)
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as d:
+        tmp = Path(d)
+        ours(tmp), peer(tmp, args.peer)  # untimed: bytecode caches written, files in the page cache
+        rows: list[tuple[float, float, float, float]] = []
+        for i in range(args.pairs):
+            a, b = (ours(tmp), peer(tmp, args.peer)) if i % 2 == 0 else reversed((peer(tmp, args.peer), ours(tmp)))
+            rows.append((*a, *b))
+            print(f"pair {i + 1}: ours {a[0]:.2f} s wall {a[1]:.2f} s CPU; peer {b[0]:.2f} s wall "
+                  f"{b[1]:.2f} s CPU; wall ratio {a[0] / b[0]:.2f}", flush=True)
+    ow, oc, pw, pc = (statistics.median(r[k] for r in rows) for k in range(4))
+    ratios = sorted(r[0] / r[2] for r in rows)
+    print(f"ours (lamp, cold build, 6 formats + sheet): median {ow:.2f} s wall, {oc:.2f} s CPU")
+    print(f"peer (hinged box, cold compile + checks + USDZ): median {pw:.2f} s wall, {pc:.2f} s CPU")
+    print(f"wall ratio of medians {ow / pw:.2f} (pairs: {ratios[0]:.2f}-{ratios[-1]:.2f}, median "
+          f"{statistics.median(ratios):.2f}); CPU ratio {oc / pc:.2f}")
+
+
+if __name__ == "__main__":
+    main()
