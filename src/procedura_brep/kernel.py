@@ -159,6 +159,27 @@ def faces(shape: Shape) -> list[Shape]:
     return [_face(o["TopoDS"], f) for f in _explore(shape, o["TopAbs"].TopAbs_FACE)]
 
 
+def share_triangulation(source: Shape, target: Shape) -> None:
+    """Give ``target``'s faces the triangulations of ``source``'s, face by face in explorer
+    order: two shapes read from the same BRep bytes (twins), ``source`` meshed. Whatever reads
+    a face's triangulation then sees ``target`` as meshed too: a face's box
+    (:func:`bbox` with ``optimal=False``) is the box of its nodes, not of its whole surface.
+
+    Raises:
+        KernelError: the two shapes do not have the same number of faces.
+    """
+    o = _ocp()
+    src, dst = faces(source), faces(target)
+    if len(src) != len(dst):
+        raise KernelError(f"cannot share a triangulation between shapes of {len(src)} and "
+                          f"{len(dst)} faces")
+    builder = o["BRep"].BRep_Builder()
+    for a, b in zip(src, dst):
+        tri = o["BRep"].BRep_Tool.Triangulation_s(a, o["TopLoc"].TopLoc_Location())
+        if tri is not None:
+            builder.UpdateFace(b, tri)
+
+
 def _explore(shape: Shape, kind: Any) -> list[Shape]:
     from OCP.TopExp import TopExp_Explorer
     out: list[Shape] = []

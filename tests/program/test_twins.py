@@ -10,20 +10,30 @@ from procedura_brep.program.sandbox import CompileOptions, Worker
 from procedura_brep.testing.models import compiled, rebuilt
 
 LEGS = ("leg_a", "leg_b", "leg_c", "leg_d", "leg_e")
+CORNERS = ((-60, -30), (60, -30), (-60, 30), (60, 30), (0, 0))
 
 
-def table(*, leg_e: str = "return leg(1)", e_frame: str = "(0, 0, 0)") -> str:
+def table(*, leg_e: str = "return leg(1)", e_frame: str = "(0, 0, 0)", pads: bool = False) -> str:
     """A table top on five legs; each leg's foot is a peg in a socket of the top (a mate
-    feature on both). leg_a..leg_d are twins (``return leg(1)``, the same foot frame)."""
+    feature on both). leg_a..leg_d are twins (``return leg(1)``, the same foot frame). With
+    ``pads``, each leg's far end holds a pad pressed on a pin (twins too, each pair the same
+    but for where it stands)."""
     legs = "\n".join(f'@part(detail="major", material="wood", description="leg {n[-1]}")\n'
                      f"def {n}():\n    {leg_e if n == 'leg_e' else 'return leg(1)'}\n"
                      for n in LEGS)
+    if pads:
+        legs += "\n".join(f'@part(detail="sub", material="rubber", description="pad {n[-1]}")\n'
+                          f"def pad_{n[-1]}():\n    return pad()\n" for n in LEGS)
     corners = "\n".join(f'frames("top", s_{n}=Location(({x}, {y}, 0), (180, 0, 0)))'
-                        for n, (x, y) in zip(LEGS, [(-60, -30), (60, -30), (-60, 30), (60, 30), (0, 0)]))
-    feet = "\n".join(f'frames("{n}", foot=Location({e_frame if n == "leg_e" else "(0, 0, 0)"}))'
-                     for n in LEGS)
+                        for n, (x, y) in zip(LEGS, CORNERS))
+    feet = "\n".join(f'frames("{n}", foot=Location({e_frame if n == "leg_e" else "(0, 0, 0)"}), '
+                     f"toe=Location((0, 0, leg_h)))" for n in LEGS)
     mates = "\n".join(f'mate("{n}.foot", "top.s_{n}", "peg_socket", nominal="peg_d", fit="location")'
                       for n in LEGS)
+    if pads:
+        feet += "\n" + "\n".join(f'frames("pad_{n[-1]}", seat=Location((0, 0, 0)))' for n in LEGS)
+        mates += "\n" + "\n".join(f'mate("pad_{n[-1]}.seat", "{n}.toe", "press_fit", nominal="pin_d", '
+                                   f'fit="press")' for n in LEGS)
     return f'''"""A small table. Hand-written test program (procedura-brep format)."""
 from procedura_brep.program import *
 
@@ -31,10 +41,14 @@ from procedura_brep.program import *
 top_t = 12.0  # mm
 leg_h = 70.0  # mm
 peg_d = 8.0   # mm
+pin_d = 5.0   # mm
 
 # === helpers ===
 def leg(k):
     return Box(16 * k, 16, leg_h, align=(Align.CENTER, Align.CENTER, Align.MIN))
+
+def pad():
+    return Cylinder(10, 4, align=(Align.CENTER, Align.CENTER, Align.MIN))
 
 # === parts ===
 @part(detail="silhouette", material="wood", description="table top")
@@ -108,3 +122,9 @@ def test_twins_are_tessellated_once_and_each_mesh_is_its_world_mesh(monkeypatch)
         ours, theirs = (v[np.lexsort(np.round(v, 6).T)] for v in (meshes[name].vertices, world.vertices))
         assert abs(ours - theirs).max() < 1e-9
     assert abs(meshes["leg_a"].vertices - meshes["leg_d"].vertices).max() > 50  # placed apart
+    # a twin's own shape reads as meshed (a face's box is its nodes' box, as for leg_a)
+    from OCP.BRep import BRep_Tool
+    from OCP.TopLoc import TopLoc_Location
+    for name in LEGS:
+        assert all(BRep_Tool.Triangulation_s(f, TopLoc_Location()) is not None
+                   for f in kernel.faces(m.part(name).local_shape())), name

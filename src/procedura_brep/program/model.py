@@ -94,6 +94,12 @@ class CompiledPart:
         return memo[1].copy()
 
     @property
+    def local_digest(self) -> str:
+        """sha256 of the local BRep: the same for parts of the same local geometry (twins)."""
+        hexdigest: str = self._brep_hash().hexdigest()
+        return hexdigest
+
+    @property
     def digest(self) -> str:
         """sha256 of the local BRep plus placement: changes exactly when the geometry does."""
         h = self._brep_hash()
@@ -141,16 +147,22 @@ class CompiledPart:
     def local_mesh(self) -> Mesh:
         """The part's mesh in its own frame (mm), cached by its BRep bytes: a twin's is the
         same mesh. Tessellated from the local shape, as OCCT meshes a located shape (on its
-        faces' own geometry), so a placement changes no triangle."""
-        key = self._brep_hash().hexdigest()
-        hit: Mesh | None = _LOCAL_MESHES.get(key)
+        faces' own geometry), so a placement changes no triangle. A twin's own shape is given
+        the triangulation too (:func:`procedura_brep.kernel.share_triangulation`): it reads
+        as meshed, as every part's shape did when each was meshed on its own."""
+        from .. import kernel
+        key = self.local_digest
+        shape = self.local_shape()
+        hit = _LOCAL_MESHES.get(key)
         if hit is None:
-            from .. import kernel
-            hit = kernel.tessellate(self.local_shape(), name=self.name)
+            hit = (kernel.tessellate(shape, name=self.name), shape)
             if len(_LOCAL_MESHES) >= _MESH_CACHE_SIZE:
                 _LOCAL_MESHES.pop(next(iter(_LOCAL_MESHES)))
             _LOCAL_MESHES[key] = hit
-        return hit
+        elif hit[1] is not shape:
+            kernel.share_triangulation(hit[1], shape)
+        mesh: Mesh = hit[0]
+        return mesh
 
     def world_frame(self, frame: str) -> np.ndarray:
         world: np.ndarray = self.placement @ self.frames[frame]
