@@ -59,6 +59,7 @@ BEARING_ANGLE_DEG: float = TOL.bearing_angle_deg
 MAX_SAMPLES: int = 40000
 
 _MEASURED: LRU = LRU()
+_BEARING: LRU = LRU()
 
 
 @dataclass
@@ -259,25 +260,52 @@ def side_of(geo: PartGeometry, frame: np.ndarray) -> float:
     return float((cen - frame[:3, 3]) @ frame[:3, 2])
 
 
+def pair_key(model: CompiledModel, mate: CompiledMate) -> tuple[Any, ...]:
+    """What a mate's measures depend on: both parts' local geometry, the child's placement and
+    the mate frame in the parent's frame, the parent's world orientation (a common's width is
+    also read along the world axes, so only a translated pair is the same pair), and the mate's
+    type, nominal, fit and options. Twin pairs moved apart (the hub caps pressed into the three
+    wheels of a side) share it, so each is measured once."""
+    child, parent = model.part(mate.child), model.part(mate.parent)
+    inv = np.linalg.inv(parent.placement)
+
+    def exact(m: np.ndarray) -> bytes:
+        return (np.round(m, 9) + 0.0).tobytes()  # + 0.0: no -0.0
+
+    return (child.local_digest, parent.local_digest, getattr(child, "pieces", 1),
+            exact(inv @ child.placement), exact(inv @ mate.world_frame),
+            exact(parent.placement[:3, :3]), mate.nominal, mate.type,
+            repr(sorted((mate.options or {}).items())),
+            repr(sorted(mate.fit.items())) if mate.fit else "")
+
+
 def bearing_area(model: CompiledModel, mate: CompiledMate) -> float:
     """The registration (bearing) area (mm^2) of ``mate``'s child on its parent, as the gate
-    measures it: the child's body only, within :func:`bearing_radius` of the mate axis."""
+    measures it: the child's body only, within :func:`bearing_radius` of the mate axis. Cached
+    by :func:`pair_key` (the gate and the articulation evidence both ask)."""
+    key = pair_key(model, mate)
+    hit = _BEARING.get(key)
+    if hit is not None:
+        return float(hit)
     child, parent = model.part(mate.child), model.part(mate.parent)
     cg, pg = part_geometry(child), part_geometry(parent)
-    return registration_area(cg, pg, mate.world_frame, mate.nominal,
+    area = registration_area(cg, pg, mate.world_frame, mate.nominal,
                              radius=bearing_radius(mate), mask=body_faces(child, cg))
+    _BEARING.put(key, area)
+    return area
 
 
 def measure(model: CompiledModel, mate: CompiledMate) -> MateMeasure:
-    """Registration area and penetration of one mate, cached by both parts' digests and the frame."""
+    """Registration area and penetration of one mate, cached by :func:`pair_key` (the deepest
+    point kept in the parent's frame)."""
     child, parent = model.part(mate.child), model.part(mate.parent)
-    key = (child.digest, parent.digest, getattr(child, "pieces", 1),
-           np.round(mate.world_frame, 9).tobytes(), mate.nominal, mate.type,
-           repr(sorted((mate.options or {}).items())),
-           repr(sorted(mate.fit.items())) if mate.fit else "")
+    key = pair_key(model, mate)
     hit = _MEASURED.get(key)
     if hit is not None:
-        return MateMeasure(mate.name, *hit)
+        *vals, local = hit
+        point = None if local is None else tuple(float(x) for x in parent.placement[:3, :3] @ local
+                                                 + parent.placement[:3, 3])
+        return MateMeasure(mate.name, *vals, point)
     cg, pg = part_geometry(child), part_geometry(parent)
     area = bearing_area(model, mate)
     com = common(cg, child.shape(), pg, parent.shape())
@@ -287,9 +315,10 @@ def measure(model: CompiledModel, mate: CompiledMate) -> MateMeasure:
     depth = 0.0 if deepest is None else deepest.depth(mate.world_frame)
     point = None if deepest is None else tuple(float(x) for x in deepest.inner_point())
     vals = (area, area_limit(mate.nominal), depth, penetration_limit(mate.fit or {}),
-            com.exact, com.reason, point)
-    _MEASURED.put(key, vals)
-    return MateMeasure(mate.name, *vals)
+            com.exact, com.reason)
+    local = None if point is None else np.linalg.inv(parent.placement)[:3] @ np.append(point, 1.0)
+    _MEASURED.put(key, (*vals, local))
+    return MateMeasure(mate.name, *vals, point)
 
 
 def flipped_hint(model: CompiledModel, mate: CompiledMate) -> str:
