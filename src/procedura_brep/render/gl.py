@@ -106,8 +106,9 @@ void main() {
 
 @dataclass
 class Frame:
-    """One supersampled view: colour (H, W, 3) uint8, part id (H, W) int32 (0 = background),
-    normals (H, W, 3) uint8 encoding N * 0.5 + 0.5 (parts mode only, else None)."""
+    """One supersampled view: colour (H, W, 3) uint8, part id (H, W) int32 (0 = background;
+    in ``pbr`` mode, which draws no outlines, 1 for any part), normals (H, W, 3) uint8 encoding
+    N * 0.5 + 0.5 (parts mode only, else None)."""
 
     color: np.ndarray
     ids: np.ndarray
@@ -160,13 +161,16 @@ class Renderer:
                                 self.prog[key].value = tuple(float(x) for x in vec)
                         vao.render()
                     c = np.frombuffer(fbo.read(components=4, attachment=0), np.uint8).reshape(ss, ss, 4)
-                    i = np.frombuffer(fbo.read(components=1, attachment=1, dtype="f4"), np.float32)
+                    if mode == "pbr":  # no outlines: only drawn or not matters, the colour's alpha
+                        idmap = (c[::-1, :, 3] > 0).astype(np.int32)
+                    else:
+                        i = np.frombuffer(fbo.read(components=1, attachment=1, dtype="f4"), np.float32)
+                        idmap = i.reshape(ss, ss)[::-1].astype(np.int32)
                     n = None
                     if mode == "parts":
                         n = np.frombuffer(fbo.read(components=4, attachment=2), np.uint8)
                         n = n.reshape(ss, ss, 4)[::-1, :, :3]
-                    out.append(Frame(color=c[::-1, :, :3], ids=i.reshape(ss, ss)[::-1].astype(np.int32),
-                                     normals=n))
+                    out.append(Frame(color=c[::-1, :, :3], ids=idmap, normals=n))
             finally:
                 for obj in (vao, vbo, fbo, color, ids, nrm, depth):
                     if obj is not None:
