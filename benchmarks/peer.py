@@ -1,7 +1,7 @@
 """Cold call against a peer (issue 24 item 2): our cold ``build`` of the 3-part lamp against
 mini-articraft's cold compile of its 2-part hinged box, in alternating pairs.
 
-Ours: ``procedura-brep build tests/program/lamp.py -o DIR -q`` in a fresh process with the part
+Ours: ``python -m procedura_brep build tests/program/lamp.py -o DIR -q`` in a fresh process with the part
 store empty (``PROCEDURA_BREP_CACHE=off``) and no server: compile, gates, STEP, OBJ, GLB, USD,
 URDF, MJCF, the viewer and ``sheet.png``.
 
@@ -15,7 +15,10 @@ Both sides run with bytecode caching on (``PYTHONDONTWRITEBYTECODE`` unset, as o
 machine), after one untimed run each. Wall time is the figure; CPU is user+sys of the waited-for
 child processes (a process a side leaves to die unwaited is not counted).
 
-Run: ``python benchmarks/peer.py --peer /tmp/peer [--pairs 7]``.
+``--before REV`` also times our build at git revision REV (its ``src/`` exported to a temporary
+folder) after each pair: the before/after of a change, beside the peer.
+
+Run: ``python benchmarks/peer.py --peer /tmp/peer [--pairs 7] [--before REV]``.
 """
 
 from __future__ import annotations
@@ -47,13 +50,15 @@ def timed(cmd: list[str], env: dict[str, str]) -> tuple[float, float]:
     return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
-def ours(tmp: Path) -> tuple[float, float]:
+def ours(tmp: Path, src: Path | None = None) -> tuple[float, float]:
+    """Our cold build; with ``src``, of the package tree there (``--before``)."""
     out = tmp / "ours"
     shutil.rmtree(out, ignore_errors=True)
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     env.update(PROCEDURA_BREP_SERVER="off", PROCEDURA_BREP_CACHE="off")
-    exe = shutil.which("procedura-brep") or sys.exit("procedura-brep is not on PATH")
-    return timed([exe, "build", str(LAMP), "-o", str(out), "-q"], env)
+    if src is not None:
+        env["PYTHONPATH"] = str(src)
+    return timed([sys.executable, "-m", "procedura_brep", "build", str(LAMP), "-o", str(out), "-q"], env)
 
 
 def peer(tmp: Path, folder: Path) -> tuple[float, float]:
@@ -71,22 +76,35 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--peer", type=Path, required=True, help="the folder holding mini-articraft")
     ap.add_argument("--pairs", type=int, default=7)
+    ap.add_argument("--before", default=None, metavar="REV",
+                    help="also time our build at git revision REV, in turn with the others")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
+        before = None
+        if args.before:
+            from build import export_tree  # benchmarks/build.py, beside this script
+            before = export_tree(args.before, tmp)
+            ours(tmp, before)
         ours(tmp), peer(tmp, args.peer)  # untimed: bytecode caches written, files in the page cache
+        old: list[float] = []
         rows: list[tuple[float, float, float, float]] = []
         for i in range(args.pairs):
             a, b = (ours(tmp), peer(tmp, args.peer)) if i % 2 == 0 else reversed((peer(tmp, args.peer), ours(tmp)))
             rows.append((*a, *b))
             print(f"pair {i + 1}: ours {a[0]:.2f} s wall {a[1]:.2f} s CPU; peer {b[0]:.2f} s wall "
                   f"{b[1]:.2f} s CPU; wall ratio {a[0] / b[0]:.2f}", flush=True)
+            if before is not None:
+                old.append(ours(tmp, before)[0])
     ow, oc, pw, pc = (statistics.median(r[k] for r in rows) for k in range(4))
     ratios = sorted(r[0] / r[2] for r in rows)
     print(f"ours (lamp, cold build, 6 formats + sheet): median {ow:.2f} s wall, {oc:.2f} s CPU")
     print(f"peer (hinged box, cold compile + checks + USDZ): median {pw:.2f} s wall, {pc:.2f} s CPU")
     print(f"wall ratio of medians {ow / pw:.2f} (pairs: {ratios[0]:.2f}-{ratios[-1]:.2f}, median "
           f"{statistics.median(ratios):.2f}); CPU ratio {oc / pc:.2f}")
+    if old:
+        print(f"ours before ({args.before}): median {statistics.median(old):.2f} s wall; "
+              f"after/before {ow / statistics.median(old):.2f}; before/peer {statistics.median(old) / pw:.2f}")
 
 
 if __name__ == "__main__":
