@@ -70,6 +70,7 @@ def test_twins_share_a_key_and_are_built_once():
     keys = {p.name: p.cache_key for p in m.parts}
     assert len({keys[n] for n in LEGS}) == 1 and keys["top"] != keys["leg_a"]
     assert rebuilt(m) == {"top", "leg_a"}  # leg_b..leg_e took leg_a's final solid
+    assert m.timings["twins"] == 4 and m.timings["parts_built"] == 2
     legs = [m.part(n) for n in LEGS]
     assert len({p.brep for p in legs}) == 1
     assert len({tuple(p.placement[:3, 3].round(6)) for p in legs}) == 5  # each at its corner

@@ -191,7 +191,7 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     t = _lap(b, "parts_s", t)
     contextvars.Context().run(_apply_features, b, reg, mates, hits | twins.keys())
     t = _lap(b, "features_s", t)
-    _adopt_twins(b, reg, mates, twins, params, glb)
+    b.timings["twins"] = float(_adopt_twins(b, reg, mates, twins, params, glb))
     _place(b, reg, mates)
     t = _lap(b, "place_s", t)
     painted = blocks.apply_paint(b, reg, mates)  # colour blocks, cut after features and caching
@@ -238,11 +238,11 @@ def _twins(reg: registry.Registry, keys: dict[str, str], volatile: set[str],
 
 
 def _adopt_twins(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]],
-                 twins: dict[str, str], params: dict[str, Any], glb: dict[str, Any]) -> None:
+                 twins: dict[str, str], params: dict[str, Any], glb: dict[str, Any]) -> int:
     """Give each twin the final solid of the part it repeats (one object: placement moves a
     carrier, paint replaces the entry, serialising writes it once). A twin whose first failed
     (a finding names that part or one of its mates) is run on its own, so that its own
-    findings name it."""
+    findings name it. Returns how many twins took a solid without running."""
     failed_parts = {f.part for f in b.findings if f.part}
     failed_mates = {f.mate for f in b.findings if f.mate}
     for m in mates:
@@ -259,6 +259,7 @@ def _adopt_twins(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]],
         others = set(reg.parts) - redo
         _eval_parts(b, reg, set(), params, glb, skip=others)
         contextvars.Context().run(_apply_features, b, reg, mates, others)
+    return len(twins) - len(redo)
 
 
 def _prebuilt(b: _Build, reg: registry.Registry, hits: set[str], params: dict[str, Any],

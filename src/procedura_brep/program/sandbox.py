@@ -200,8 +200,9 @@ class Worker:
                                 name=options.name,
                                 cache_dir=self.cache_dir if options.cache else None)
                 model.isolation = self.isolation
-                model.timings["parts_built"] = float(
-                    built + len(model.parts) - int(model.timings.get("cache_hits", 0)))
+                model.timings["parts_built"] = float(  # twins took a solid without running
+                    built + len(model.parts) - int(model.timings.get("cache_hits", 0))
+                    - int(model.timings.get("twins", 0)))
                 if options.cache and model.ok:
                     from .cache import store_model
                     store_model(self.cache_dir, model, options.limits)
