@@ -11,6 +11,15 @@ compiler checks (the hinge sweep among them) and its USDZ, validated. The peer i
 and is not part of this repository: pass the folder that holds it (``src/mini_articraft``, a
 ``.venv`` with its dependencies, ``examples/hinged_box/main.py``) as ``--peer``.
 
+The tree measured on 2026-12-04 (:data:`PEER_FILES`) was assembled file by file from the stored
+public index of mattzh72/mini-articraft (the machine has no network but the package
+registries), around commit 2a34955 (worker, local, sdk/export, sdk/testing, _mesh_core), each
+other module at a stored version whose names and signatures match those files' calls; no
+single commit is proven to hold them all, nothing was patched, and it runs clean (status
+success, no failures, as its own test of the example expects). Its dependencies are those of
+its pyproject.toml at 0deb2e3, installed by pip into the folder's ``.venv``; the package runs
+from ``src`` (``PYTHONPATH``).
+
 Both sides run with bytecode caching on (``PYTHONDONTWRITEBYTECODE`` unset, as on a user's
 machine), after one untimed run each. Wall time is the figure; CPU is user+sys of the waited-for
 child processes (a process a side leaves to die unwaited is not counted).
@@ -35,6 +44,30 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+#: (path in mattzh72/mini-articraft, commit) of every file of the measured peer tree.
+PEER_FILES: tuple[tuple[str, str], ...] = tuple(
+    (f"src/mini_articraft/{p}", c) for p, c in (
+        ("environments/worker.py", "2a34955ec94aada3f095f933304365c230d57d07"),
+        ("environments/local.py", "2a34955ec94aada3f095f933304365c230d57d07"),
+        ("sdk/export.py", "2a34955ec94aada3f095f933304365c230d57d07"),
+        ("sdk/testing.py", "2a34955ec94aada3f095f933304365c230d57d07"),
+        ("sdk/_mesh_core.py", "2a34955ec94aada3f095f933304365c230d57d07"),
+        ("sdk/_collision.py", "e5215b3f6f3025aece336c1053e0fd30a0d08052"),
+        ("compile_feedback.py", "e5215b3f6f3025aece336c1053e0fd30a0d08052"),
+        ("compile_result.py", "e5215b3f6f3025aece336c1053e0fd30a0d08052"),
+        ("sdk/object.py", "25b777dc35be84bf9917bd7ede79a2ea6ccb3982"),
+        ("sdk/errors.py", "25b777dc35be84bf9917bd7ede79a2ea6ccb3982"),
+        ("sdk/joints.py", "838183ff98e5190cc53c6e59f9d6c90599f8abe3"),
+        ("sdk/__init__.py", "161180313e485c5744f6bbd36143979f38d0d839"),
+        ("sdk/_mesh_sweeps.py", "c100e9f3379bf52a8db661f435972f33467028f0"),
+        ("sdk/_mesh_profiles.py", "e1604c7d80458e33ad533878934be99ec6e56802"),
+        ("environments/__init__.py", "b383b73169724a3117ae0fa64dbd46566bb30a42"),
+        ("__init__.py", "ff6fe397a0bb699b562789768fc160780d49584d"),
+        ("settings.py", "77447ea6b6059b65d4ae566bbf2abe33fd683076"),
+        ("record.py", "453e9cecbf1210b1b9e5c06e43eefbf14d432dd7"),
+        ("_child_process.py", "669a06dac5721dfcca4740b2e015c1708777812c"),
+    )) + (("examples/hinged_box/main.py", "6a0b0d4ef6cc4ee3fe21926cc991f50f5698ee8c"),
+          ("pyproject.toml", "0deb2e3c8f74fa4e435570f565032d3c6c16ed65"))
 LAMP = ROOT / "tests" / "program" / "lamp.py"
 
 
