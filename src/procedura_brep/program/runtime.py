@@ -184,9 +184,9 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
     t = _lap(b, "keys_s", t)
     hits = _load_cached(b, part_keys, cache_dir, painted={d.part for d in reg.paints})
     t = _lap(b, "cache_s", t)
-    twins = _twins(reg, part_keys, volatile, hits)
+    firsts, twins = _twins(reg, part_keys, volatile, hits)
     if share is not None:
-        return _prebuilt(b, reg, hits, params, glb, mates, part_keys, volatile, twins, share, t0)
+        return _prebuilt(b, reg, params, glb, mates, part_keys, firsts[share[0]::share[1]], t0)
     _eval_parts(b, reg, hits, params, glb, skip=twins.keys())
     t = _lap(b, "parts_s", t)
     contextvars.Context().run(_apply_features, b, reg, mates, hits | twins.keys())
@@ -218,12 +218,12 @@ def compile_program(source: str, *, name: str = "model", cache_dir: str | int | 
 
 
 def _twins(reg: registry.Registry, keys: dict[str, str], volatile: set[str],
-           hits: AbstractSet[str]) -> dict[str, str]:
-    """Part -> the earlier part (plan order) with the same key, for the parts the cache lacks:
-    the same function text but for its name, reading the same values, given the same mate
-    features (``wheel_fl`` and ``wheel_rl`` both ``return wheel(1)``), so the same solid. A
-    part without a key or whose key hashed a mutable module value (``volatile``) has no twin:
-    its solid could depend on what ran before it."""
+           hits: AbstractSet[str]) -> tuple[list[str], dict[str, str]]:
+    """Among the parts the cache lacks, keyed and not ``volatile``: the first part (plan order)
+    of each key, and each twin -> its first. A twin has the same function text but for its
+    name, reads the same values and gets the same mate features (``wheel_fl`` and ``wheel_rl``
+    both ``return wheel(1)``), so the same solid. A part without a key or whose key hashed a
+    mutable module value is in neither: its solid could depend on what ran before it."""
     first: dict[str, str] = {}
     twins: dict[str, str] = {}
     for n in reg.parts:
@@ -234,7 +234,14 @@ def _twins(reg: registry.Registry, keys: dict[str, str], volatile: set[str],
             twins[n] = first[k]
         else:
             first[k] = n
-    return twins
+    return list(first.values()), twins
+
+
+def _failed_parts(b: _Build, mates: list[dict[str, Any]]) -> set[str]:
+    """The parts a finding names, directly or through one of their mates."""
+    named = {f.part for f in b.findings if f.part} | {f.mate for f in b.findings if f.mate}
+    return named | {n for m in mates if m["decl"].name in named
+                    for n in (m["decl"].child, m["decl"].parent)}
 
 
 def _adopt_twins(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]],
@@ -243,11 +250,7 @@ def _adopt_twins(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]],
     carrier, paint replaces the entry, serialising writes it once). A twin whose first failed
     (a finding names that part or one of its mates) is run on its own, so that its own
     findings name it. Returns how many twins took a solid without running."""
-    failed_parts = {f.part for f in b.findings if f.part}
-    failed_mates = {f.mate for f in b.findings if f.mate}
-    for m in mates:
-        if m["decl"].name in failed_mates:
-            failed_parts |= {m["decl"].child, m["decl"].parent}
+    failed_parts = _failed_parts(b, mates)
     redo: set[str] = set()
     for twin, first in twins.items():
         if first in b.solids and first not in failed_parts:
@@ -262,26 +265,22 @@ def _adopt_twins(b: _Build, reg: registry.Registry, mates: list[dict[str, Any]],
     return len(twins) - len(redo)
 
 
-def _prebuilt(b: _Build, reg: registry.Registry, hits: set[str], params: dict[str, Any],
-              glb: dict[str, Any], mates: list[dict[str, Any]], part_keys: dict[str, str],
-              volatile: set[str], twins: dict[str, str], share: tuple[int, int],
+def _prebuilt(b: _Build, reg: registry.Registry, params: dict[str, Any], glb: dict[str, Any],
+              mates: list[dict[str, Any]], part_keys: dict[str, str], share: list[str],
               t0: float) -> CompiledModel:
-    """Share ``i`` of ``n`` (``share``) of the parts that the cache lacks, each run and given
-    its mate features, as unplaced parts under their keys (no placement, caps of the whole or
-    paint: the compile that follows does those, with every part a cache hit). The parts to
-    build are dealt round robin in plan order, one per key (a twin is found in the cache under
-    its first's key). A part is left out when its key is empty or hashed a mutable module value
-    (``volatile``): its solid could depend on which other parts ran before it, and here only a
-    share of them run."""
+    """The parts of ``share`` (this child's share of the first parts of :func:`_twins`, dealt
+    round robin in plan order: one per key, a twin is found in the cache under its first's
+    key), each run and given its mate features, as unplaced parts under their keys (no
+    placement, caps of the whole or paint: the compile that follows does those, with every part
+    a cache hit). A part without a key or whose key hashed a mutable module value is in no
+    share: its solid could depend on which other parts ran before it, and here only a share of
+    them run."""
     from .. import kernel
-    i, n = share
-    todo = set([p for p in reg.parts if p not in hits and p not in twins and part_keys.get(p)
-                and p not in volatile][i::n])
+    todo = set(share)
     rest = set(reg.parts) - todo
     _eval_parts(b, reg, rest, params, glb, skip=rest)
     contextvars.Context().run(_apply_features, b, reg, mates, rest)
-    named = {f.part for f in b.findings} | {f.mate for f in b.findings}  # a failure names these
-    bad = named | {n for m in mates if m["decl"].name in named for n in (m["decl"].child, m["decl"].parent)}
+    bad = _failed_parts(b, mates)
     parts = [CompiledPart(name=n, brep=kernel.write_brep(kernel.bake_location(b.solids[n].wrapped)),
                           placement=np.eye(4), frames={}, material=reg.parts[n].material,
                           detail=reg.parts[n].detail, cache_key=part_keys[n])
