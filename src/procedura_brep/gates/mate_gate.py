@@ -43,6 +43,7 @@ import numpy as np
 
 from ..config import TOL
 from ..mates.kinds import Motion
+from ..mates.placement import rigid_inverse
 from ..mates.vocabulary import TYPES
 from ..program.model import CompiledMate, CompiledModel, Finding
 from .common import common
@@ -267,7 +268,7 @@ def pair_key(model: CompiledModel, mate: CompiledMate) -> tuple[Any, ...]:
     type, nominal, fit and options. Twin pairs moved apart (the hub caps pressed into the three
     wheels of a side) share it, so each is measured once."""
     child, parent = model.part(mate.child), model.part(mate.parent)
-    inv = np.linalg.inv(parent.placement)
+    inv = rigid_inverse(parent.placement)
 
     def exact(m: np.ndarray) -> bytes:
         return (np.round(m, 9) + 0.0).tobytes()  # + 0.0: no -0.0
@@ -316,7 +317,7 @@ def measure(model: CompiledModel, mate: CompiledMate) -> MateMeasure:
     point = None if deepest is None else tuple(float(x) for x in deepest.inner_point())
     vals = (area, area_limit(mate.nominal), depth, penetration_limit(mate.fit or {}),
             com.exact, com.reason)
-    local = None if point is None else np.linalg.inv(parent.placement)[:3] @ np.append(point, 1.0)
+    local = None if point is None else rigid_inverse(parent.placement)[:3] @ np.append(point, 1.0)
     _MEASURED.put(key, (*vals, local))
     return MateMeasure(mate.name, *vals, point)
 
