@@ -46,12 +46,19 @@ def clear_mesh_cache() -> None:
     _SHAPES.clear()
 
 
+def _keep(cache: dict[str, Any], key: str, value: Any) -> Any:
+    """Store ``value`` under ``key`` in one of this module's caches, the oldest entry dropped
+    when it holds :data:`_MESH_CACHE_SIZE`; returns ``value``."""
+    if key not in cache and len(cache) >= _MESH_CACHE_SIZE:
+        cache.pop(next(iter(cache)))
+    cache[key] = value
+    return value
+
+
 def adopt_mesh(digest: str, mesh: Any) -> None:
     """Cache ``mesh`` as the mesh of the part geometry ``digest``: one tessellated by another
     process of ours from the same geometry (:mod:`procedura_brep.run.overlap`)."""
-    if digest not in _MESHES and len(_MESHES) >= _MESH_CACHE_SIZE:
-        _MESHES.pop(next(iter(_MESHES)))
-    _MESHES[digest] = mesh
+    _keep(_MESHES, digest, mesh)
 
 
 @dataclass
@@ -110,14 +117,11 @@ class CompiledPart:
     def local_shape(self) -> Shape:
         """The part's TopoDS_Shape in part-local coordinates (cached, also across models)."""
         if self._shape is None:
-            key = f"{self.name}:{self._brep_hash().hexdigest()}"
+            key = f"{self.name}:{self.local_digest}"
             shape = _SHAPES.get(key)
             if shape is None:
                 from .. import kernel
-                shape = kernel.read_brep(self.brep)
-                if len(_SHAPES) >= _MESH_CACHE_SIZE:
-                    _SHAPES.pop(next(iter(_SHAPES)))
-                _SHAPES[key] = shape
+                shape = _keep(_SHAPES, key, kernel.read_brep(self.brep))
             self._shape = shape
         return self._shape
 
@@ -138,10 +142,7 @@ class CompiledPart:
         hit: Mesh | None = _MESHES.get(key)
         if hit is None:
             from .. import kernel
-            hit = kernel.placed_mesh(self.local_mesh(), self.placement)
-            if len(_MESHES) >= _MESH_CACHE_SIZE:
-                _MESHES.pop(next(iter(_MESHES)))
-            _MESHES[key] = hit
+            hit = _keep(_MESHES, key, kernel.placed_mesh(self.local_mesh(), self.placement))
         return hit
 
     def local_mesh(self) -> Mesh:
@@ -155,10 +156,7 @@ class CompiledPart:
         shape = self.local_shape()
         hit = _LOCAL_MESHES.get(key)
         if hit is None:
-            hit = (kernel.tessellate(shape, name=self.name), shape)
-            if len(_LOCAL_MESHES) >= _MESH_CACHE_SIZE:
-                _LOCAL_MESHES.pop(next(iter(_LOCAL_MESHES)))
-            _LOCAL_MESHES[key] = hit
+            hit = _keep(_LOCAL_MESHES, key, (kernel.tessellate(shape, name=self.name), shape))
         elif hit[1] is not shape:
             kernel.share_triangulation(hit[1], shape)
         mesh: Mesh = hit[0]
