@@ -333,12 +333,11 @@ def tessellate(shape: Shape, *, linear: float | None = None, angular: float = TO
     return mesh
 
 
-def placed_mesh(mesh: Mesh, placement: np.ndarray) -> Mesh:
-    """``mesh`` moved by the 4x4 rigid ``placement`` (a mirror reverses the triangles, so the
-    faces stay outward)."""
+def placed_mesh(mesh: Mesh, placement: np.ndarray, *, scale: float = 1.0) -> Mesh:
+    """``mesh`` moved by the 4x4 rigid ``placement``, then scaled (1e-3: mm to m)."""
     m = np.asarray(placement, dtype=float)
-    faces = mesh.faces if np.linalg.det(m[:3, :3]) > 0 else mesh.faces[:, ::-1].copy()
-    return Mesh(mesh.vertices @ m[:3, :3].T + m[:3, 3], faces)
+    v = mesh.vertices @ m[:3, :3].T + m[:3, 3]
+    return Mesh(v * scale if scale != 1.0 else v, mesh.faces)
 
 
 def clean_mesh(vertices: np.ndarray, faces: np.ndarray, *, weld: float = TOL.mesh_weld_mm,

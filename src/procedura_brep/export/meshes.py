@@ -17,7 +17,7 @@ import numpy as np
 
 from ..config import TOL
 from ..errors import KernelError
-from ..kernel import Mesh
+from ..kernel import Mesh, placed_mesh
 from ..program.model import CompiledPart
 
 log = logging.getLogger(__name__)
@@ -84,8 +84,7 @@ def sim_mesh(part: CompiledPart) -> Mesh:
 
 def transform(mesh: Mesh, matrix: np.ndarray, *, scale: float = 1.0) -> Mesh:
     """``mesh`` moved by the 4x4 ``matrix`` then scaled (e.g. 1e-3 for mm -> m)."""
-    v = mesh.vertices @ matrix[:3, :3].T + matrix[:3, 3]
-    return Mesh(v * scale, mesh.faces)
+    return placed_mesh(mesh, matrix, scale=scale)
 
 
 def to_local_m(mesh: Mesh, frame: np.ndarray) -> Mesh:
