@@ -145,6 +145,27 @@ def test_identical_input_gives_identical_images(model: CompiledModel) -> None:
         assert np.array_equal(np.asarray(a[k]), np.asarray(b[k]))
 
 
+@pytest.mark.parametrize("size", [80, 96])
+def test_a_pbr_view_finished_on_the_gpu_is_the_composed_one_byte_for_byte(model: CompiledModel,
+                                                                           size: int) -> None:
+    """pbr views (the build's sheet.png) are box-filtered over the background on the GPU
+    (Renderer.draw_finished): the bytes must be those compose.finish makes of the supersampled
+    frames, edges and background included."""
+    from procedura_brep.render import compose, gl
+    verts = scene.vertex_array(model, part_colors([p.name for p in model.parts]))
+    lo, hi = scene.bounds(model)
+    cams = [fit_camera(VIEWS[v], lo, hi) for v in ("iso_se", "front", "top")]
+    r = gl.renderer()
+    composed = [compose.finish(f, "pbr") for f in r.draw(verts, cams, size, "pbr")]
+    finished = r.draw_finished(verts, cams, size, "pbr", BACKGROUND["pbr"])
+    for a, b in zip(composed, finished, strict=True):
+        assert b.shape == (size, size, 3) and b.dtype == np.uint8
+        assert np.array_equal(a, b)
+        assert 0.05 < np.any(a != np.array(BACKGROUND["pbr"], np.uint8), axis=2).mean() < 0.95
+    empty = r.draw_finished(verts[:0], cams[:1], size, "pbr", BACKGROUND["pbr"])[0]
+    assert np.all(empty == np.array(BACKGROUND["pbr"], np.uint8))
+
+
 def test_render_to_dir_sheet_legend_cache_and_staleness(model: CompiledModel, tmp_path) -> None:
     r = render_to_dir(model, tmp_path, views="iso_se,front,top", size=64, sheet=True)
     assert set(r.legend) == {p.name for p in model.parts}

@@ -2,7 +2,10 @@
 
 Each view is drawn at :data:`SUPERSAMPLE` times the requested size into three targets (colour,
 part id, view-space normal); :mod:`.compose` derives outlines from the id and normal targets and
-box-filters down. Nothing here depends on a display; Mesa llvmpipe renders on the CPU.
+box-filters down. A mode without outlines (``pbr``: the build's ``sheet.png``) needs neither
+extra target: :meth:`Renderer.draw_finished` draws the colour alone and box-filters it on the
+GPU, the same bytes for a quarter of the pixels read back (about 0.1 s of a 7-view sheet here).
+Nothing here depends on a display; Mesa llvmpipe renders on the CPU.
 """
 
 from __future__ import annotations
@@ -104,6 +107,36 @@ void main() {
 """
 
 
+_QUAD_VERT = """
+#version 330
+void main() {  // one triangle over the whole viewport, no vertex buffer
+    vec2 p = vec2(float((gl_VertexID & 1) * 4 - 1), float((gl_VertexID & 2) * 2 - 1));
+    gl_Position = vec4(p, 0.0, 1.0);
+}
+"""
+
+# compose.finish for a line-free mode, on the GPU: each output pixel is the rounded mean of its
+# s x s samples, a sample the background where nothing was drawn (alpha 0); integer arithmetic
+# in floats (exact below 2**24), so the bytes are those of compose.finish
+_BOX_FRAG = """
+#version 330
+uniform sampler2D u_src; uniform int u_s; uniform vec3 u_bg;
+out vec4 f_color;
+void main() {
+    ivec2 at = ivec2(gl_FragCoord.xy) * u_s;
+    vec3 total = vec3(0.0);
+    for (int i = 0; i < u_s; ++i) {
+        for (int j = 0; j < u_s; ++j) {
+            vec4 c = texelFetch(u_src, at + ivec2(i, j), 0);
+            total += c.a > 0.0 ? floor(c.rgb * 255.0 + 0.5) : u_bg;
+        }
+    }
+    float n = float(u_s * u_s);
+    f_color = vec4(floor((total + floor(n / 2.0)) / n) / 255.0, 1.0);
+}
+"""
+
+
 @dataclass
 class Frame:
     """One supersampled view: colour (H, W, 3) uint8, part id (H, W) int32 (0 = background;
@@ -125,6 +158,7 @@ class Renderer:
         self._mgl = moderngl
         self.ctx: Any = moderngl.create_context(standalone=True, backend="egl")
         self.prog = self.ctx.program(vertex_shader=_VERT, fragment_shader=_FRAG)
+        self.box = self.ctx.program(vertex_shader=_QUAD_VERT, fragment_shader=_BOX_FRAG)
         self.info = dict(self.ctx.info)
         log.info("GL renderer: %s", self.info.get("GL_RENDERER"))
 
@@ -153,12 +187,7 @@ class Renderer:
                 for cam in cameras:
                     fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
                     if vao is not None:
-                        self.prog["u_vp"].write(cam.view_proj.T.astype("f4").tobytes())
-                        self.prog["u_ortho"].value = bool(cam.ortho)
-                        for key, vec in (("u_eye", cam.eye), ("u_fwd", cam.forward),
-                                         ("u_right", cam.right), ("u_up", cam.up)):
-                            if key in self.prog:
-                                self.prog[key].value = tuple(float(x) for x in vec)
+                        self._set_camera(cam)
                         vao.render()
                     c = np.frombuffer(fbo.read(components=4, attachment=0), np.uint8).reshape(ss, ss, 4)
                     if mode == "pbr":  # no outlines: only drawn or not matters, the colour's alpha
@@ -176,6 +205,63 @@ class Renderer:
                     if obj is not None:
                         obj.release()
         return out
+
+
+    def draw_finished(self, vertices: np.ndarray, cameras: list[Camera], size: int, mode: Mode,
+                      background: tuple[int, int, int]) -> list[np.ndarray]:
+        """What :func:`.compose.finish` makes of :meth:`draw`'s frames, for a mode without
+        outlines (``pbr``), made on the GPU: each view drawn supersampled into a colour texture
+        only (no id or normal target), then box-filtered over ``background`` into an output of
+        ``size``, which alone is read back. (size, size, 3) uint8 per camera, byte for byte
+        :func:`.compose.finish` (tests/render/test_render.py compares them)."""
+        ss = size * SUPERSAMPLE
+        out: list[np.ndarray] = []
+        with self.ctx:
+            ctx = self.ctx
+            color = ctx.texture((ss, ss), 4)
+            depth = ctx.depth_renderbuffer((ss, ss))
+            fbo = ctx.framebuffer(color_attachments=[color], depth_attachment=depth)
+            small = ctx.renderbuffer((size, size), 4)
+            down = ctx.framebuffer(color_attachments=[small])
+            quad = ctx.vertex_array(self.box, [])
+            vbo = vao = None
+            if len(vertices):
+                vbo = ctx.buffer(vertices.tobytes())
+                vao = ctx.vertex_array(self.prog, [(vbo, "3f 3f 3f 3f 2f 1f", "in_pos", "in_nrm",
+                                                    "in_pcol", "in_base", "in_mr", "in_id")])
+            try:
+                self.prog["u_mode"].value = MODE_CODES[mode]
+                self.box["u_s"].value = SUPERSAMPLE
+                self.box["u_bg"].value = tuple(float(c) for c in background)
+                for cam in cameras:
+                    fbo.use()
+                    ctx.viewport = (0, 0, ss, ss)
+                    ctx.enable(self._mgl.DEPTH_TEST)
+                    ctx.disable(self._mgl.CULL_FACE)
+                    fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+                    if vao is not None:
+                        self._set_camera(cam)
+                        vao.render()
+                    down.use()
+                    ctx.viewport = (0, 0, size, size)
+                    ctx.disable(self._mgl.DEPTH_TEST)
+                    color.use(0)
+                    quad.render(self._mgl.TRIANGLES, vertices=3)
+                    c = np.frombuffer(down.read(components=3), np.uint8).reshape(size, size, 3)
+                    out.append(c[::-1].copy())
+            finally:
+                for obj in (vao, vbo, quad, down, small, fbo, color, depth):
+                    if obj is not None:
+                        obj.release()
+        return out
+
+    def _set_camera(self, cam: Camera) -> None:
+        self.prog["u_vp"].write(cam.view_proj.T.astype("f4").tobytes())
+        self.prog["u_ortho"].value = bool(cam.ortho)
+        for key, vec in (("u_eye", cam.eye), ("u_fwd", cam.forward),
+                         ("u_right", cam.right), ("u_up", cam.up)):
+            if key in self.prog:
+                self.prog[key].value = tuple(float(x) for x in vec)
 
 
 _LOCK = threading.Lock()
