@@ -27,7 +27,12 @@ child processes (a process a side leaves to die unwaited is not counted).
 ``--before REV`` also times our build at git revision REV (its ``src/`` exported to a temporary
 folder) after each pair: the before/after of a change, beside the peer.
 
-Run: ``python benchmarks/peer.py --peer /tmp/peer [--pairs 7] [--before REV]``.
+``--server`` also starts ``procedura-brep serve`` (on a socket of its own, before the first pair)
+and times our build through it after each pair: a fresh CLI process that finds the warm server
+running (the build runs in the server's fork, src/procedura_brep/served.py), against the same
+peer call.
+
+Run: ``python benchmarks/peer.py --peer /tmp/peer [--pairs 7] [--before REV] [--server]``.
 """
 
 from __future__ import annotations
@@ -83,15 +88,35 @@ def timed(cmd: list[str], env: dict[str, str]) -> tuple[float, float]:
     return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
-def ours(tmp: Path, src: Path | None = None) -> tuple[float, float]:
-    """Our cold build; with ``src``, of the package tree there (``--before``)."""
+def ours(tmp: Path, src: Path | None = None, sock: Path | None = None) -> tuple[float, float]:
+    """Our cold build; with ``src``, of the package tree there (``--before``); with ``sock``,
+    through the warm server listening there (``--server``)."""
     out = tmp / "ours"
     shutil.rmtree(out, ignore_errors=True)
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
-    env.update(PROCEDURA_BREP_SERVER="off", PROCEDURA_BREP_CACHE="off")
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONDONTWRITEBYTECODE", "PROCEDURA_BREP_SERVER")}
+    env.update(PROCEDURA_BREP_CACHE="off")
+    if sock is None:
+        env["PROCEDURA_BREP_SERVER"] = "off"
+    else:
+        env["PROCEDURA_BREP_SOCKET"] = str(sock)
     if src is not None:
         env["PYTHONPATH"] = str(src)
     return timed([sys.executable, "-m", "procedura_brep", "build", str(LAMP), "-o", str(out), "-q"], env)
+
+
+def start_server(tmp: Path) -> tuple[subprocess.Popen[bytes], Path]:
+    """``procedura-brep serve`` on a socket in ``tmp``, once it listens."""
+    sock = tmp / "srv" / "w.sock"
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    env["PROCEDURA_BREP_SOCKET"] = str(sock)
+    proc = subprocess.Popen([sys.executable, "-m", "procedura_brep", "serve"], env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while not sock.exists():
+        if proc.poll() is not None or time.monotonic() > deadline:
+            raise SystemExit("procedura-brep serve did not start")
+        time.sleep(0.1)
+    return proc, sock
 
 
 def peer(tmp: Path, folder: Path) -> tuple[float, float]:
@@ -111,24 +136,43 @@ def main() -> None:
     ap.add_argument("--pairs", type=int, default=7)
     ap.add_argument("--before", default=None, metavar="REV",
                     help="also time our build at git revision REV, in turn with the others")
+    ap.add_argument("--server", action="store_true",
+                    help="also time our build through a warm server (procedura-brep serve)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
-        before = None
-        if args.before:
-            from build import export_tree  # benchmarks/build.py, beside this script
-            before = export_tree(args.before, tmp)
-            ours(tmp, before)
-        ours(tmp), peer(tmp, args.peer)  # untimed: bytecode caches written, files in the page cache
-        old: list[float] = []
-        rows: list[tuple[float, float, float, float]] = []
-        for i in range(args.pairs):
-            a, b = (ours(tmp), peer(tmp, args.peer)) if i % 2 == 0 else reversed((peer(tmp, args.peer), ours(tmp)))
-            rows.append((*a, *b))
-            print(f"pair {i + 1}: ours {a[0]:.2f} s wall {a[1]:.2f} s CPU; peer {b[0]:.2f} s wall "
-                  f"{b[1]:.2f} s CPU; wall ratio {a[0] / b[0]:.2f}", flush=True)
-            if before is not None:
-                old.append(ours(tmp, before)[0])
+        server, sock = start_server(tmp) if args.server else (None, None)
+        try:
+            run_pairs(args, tmp, sock)
+        finally:
+            if server is not None:
+                server.terminate()
+                server.wait(10)
+
+
+def run_pairs(args: argparse.Namespace, tmp: Path, sock: Path | None) -> None:
+    before = None
+    if args.before:
+        from build import export_tree  # benchmarks/build.py, beside this script
+        before = export_tree(args.before, tmp)
+        ours(tmp, before)
+    ours(tmp), peer(tmp, args.peer)  # untimed: bytecode caches written, files in the page cache
+    if sock is not None:
+        ours(tmp, sock=sock)
+    old: list[float] = []
+    warm: list[float] = []
+    rows: list[tuple[float, float, float, float]] = []
+    for i in range(args.pairs):
+        a, b = (ours(tmp), peer(tmp, args.peer)) if i % 2 == 0 else reversed((peer(tmp, args.peer), ours(tmp)))
+        rows.append((*a, *b))
+        print(f"pair {i + 1}: ours {a[0]:.2f} s wall {a[1]:.2f} s CPU; peer {b[0]:.2f} s wall "
+              f"{b[1]:.2f} s CPU; wall ratio {a[0] / b[0]:.2f}", flush=True)
+        if before is not None:
+            old.append(ours(tmp, before)[0])
+        if sock is not None:
+            warm.append(ours(tmp, sock=sock)[0])
+            print(f"        ours through the warm server {warm[-1]:.2f} s wall: "
+                  f"{warm[-1] / b[0]:.2f} of the peer", flush=True)
     ow, oc, pw, pc = (statistics.median(r[k] for r in rows) for k in range(4))
     ratios = sorted(r[0] / r[2] for r in rows)
     print(f"ours (lamp, cold build, 6 formats + sheet): median {ow:.2f} s wall, {oc:.2f} s CPU")
@@ -138,6 +182,10 @@ def main() -> None:
     if old:
         print(f"ours before ({args.before}): median {statistics.median(old):.2f} s wall; "
               f"after/before {ow / statistics.median(old):.2f}; before/peer {statistics.median(old) / pw:.2f}")
+    if warm:
+        wm = statistics.median(warm)
+        print(f"ours through the warm server (a fresh CLI process, `procedura-brep serve` running): "
+              f"median {wm:.2f} s wall; {wm / pw:.2f} of the peer; {wm / ow:.2f} of our cold build")
 
 
 if __name__ == "__main__":

@@ -1,5 +1,5 @@
 """``python -m procedura_brep``: the command line (the same as ``procedura-brep``)."""
 
-from .cli import main
+from .entry import main
 
 main()

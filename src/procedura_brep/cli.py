@@ -645,20 +645,28 @@ def serve(
                                                         "$PROCEDURA_BREP_SOCKET, else "
                                                         "$XDG_RUNTIME_DIR/procedura-brep/worker.sock).")] = None,
 ) -> None:
-    """Keep a warm compile worker that later commands reuse (Ctrl-C stops it).
+    """Keep a warm process that later commands reuse (Ctrl-C stops it).
 
-    Any later build, check, render, edit, simulate or generate of this same install connects
-    to it and skips starting its own worker; with no server, or one started from other code,
-    they start their own as always. PROCEDURA_BREP_SERVER=off keeps a command off it."""
+    A later build, check, render, export, simulate or edit of this same install runs in a fork
+    of it, everything already imported (same output, exit code and Ctrl-C as a local run);
+    generate and a command of another process compile through its worker. With no server, or
+    one started from other code, commands run as always. PROCEDURA_BREP_SERVER=off keeps a
+    command off it."""
     from .errors import CompileError
     from .program.sandbox import Worker
     from .program.server import serve as run
+    from .run.steps import warm_imports
+    from .served import run_served
 
     def ready(path: Path) -> None:
-        typer.echo(f"warm worker listening on {path} (pid {os.getpid()}); Ctrl-C stops it", err=True)
+        typer.echo(f"warm server listening on {path} (pid {os.getpid()}); Ctrl-C stops it", err=True)
     try:
         from .program.cache import persistent_dir
-        run(Worker(cache_dir=persistent_dir()), socket_path, ready=ready)
+        worker = Worker(cache_dir=persistent_dir())
+        worker.start()  # its boot and this process's imports side by side
+        warm_imports(render=True)  # what a served command would import: its forks start warm
+        run(worker, socket_path, ready=ready,
+            handlers={"run": functools.partial(run_served, command=main)})
     except (OSError, CompileError) as exc:
         _err(f"cannot serve: {exc}")
         raise typer.Exit(EXIT_FAIL) from None

@@ -132,6 +132,20 @@ def add_cleanup(fn: Callable[[], None]) -> None:
         _cleanups.insert(0, fn)
 
 
+def forget() -> None:
+    """Start over in a forked child that will run a command of its own (a warm server's run,
+    :mod:`procedura_brep.entry`): no cleanups, no shutdown under way, SIGINT and SIGTERM at
+    their defaults and no wake-up pipe (the parent's watcher thread did not survive the fork),
+    so :func:`install` installs afresh. Main thread only (a forked child's one thread is)."""
+    global _installed
+    _installed = False
+    _cleanups.clear()
+    _stopping.clear()
+    signal.set_wakeup_fd(-1)
+    for sig in EXIT_CODES:
+        signal.signal(sig, signal.SIG_DFL)
+
+
 @contextlib.contextmanager
 def children_ignore_sigint() -> Iterator[None]:
     """Processes started in this block start with SIGINT blocked: a blocked signal stays
@@ -150,5 +164,5 @@ def children_ignore_sigint() -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
-__all__ = ["install", "installed", "shutdown", "critical", "on_interrupt", "add_cleanup",
+__all__ = ["install", "installed", "forget", "shutdown", "critical", "on_interrupt", "add_cleanup",
            "children_ignore_sigint", "EXIT_CODES"]

@@ -34,6 +34,7 @@ import socket
 import sys
 import tempfile
 import threading
+from collections.abc import Callable
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -48,6 +49,12 @@ CONNECT_TIMEOUT_S = 2.0
 ENV_SWITCH = "PROCEDURA_BREP_SERVER"
 #: The environment variable naming the socket (default: :func:`socket_path`).
 ENV_SOCKET = "PROCEDURA_BREP_SOCKET"
+#: File descriptors one message may carry (a served command's stdin, stdout and stderr).
+MAX_FDS = 3
+
+#: A request the caller of :func:`serve` answers itself: ``handler(conn, message, fds)`` owns
+#: the file descriptors the message carried and answers on ``conn``; the connection closes after.
+Handler = Callable[[socket.socket, dict[str, Any], list[int]], None]
 
 
 def socket_path() -> Path:
@@ -84,14 +91,18 @@ def _send(conn: socket.socket, obj: dict[str, Any]) -> None:
 
 
 class _Lines:
-    """Newline-delimited JSON over one connected socket."""
+    """Newline-delimited JSON over one connected socket; file descriptors a message carries
+    (``SCM_RIGHTS``, at most :data:`MAX_FDS` a read) collect in :attr:`fds`, which the reader
+    owns and closes."""
 
     def __init__(self, conn: socket.socket) -> None:
         self.conn, self.buf = conn, b""
+        self.fds: list[int] = []
 
     def read(self) -> dict[str, Any] | None:
         while b"\n" not in self.buf:
-            chunk = self.conn.recv(65536)
+            chunk, fds, _, _ = socket.recv_fds(self.conn, 65536, MAX_FDS)
+            self.fds += fds
             if not chunk:
                 return None
             self.buf += chunk
@@ -103,7 +114,8 @@ class _Lines:
         return obj if isinstance(obj, dict) else {}
 
 
-def serve(worker: Any, path: Path | None = None, *, ready: Any = None) -> None:
+def serve(worker: Any, path: Path | None = None, *, ready: Any = None,
+          handlers: dict[str, Handler] | None = None) -> None:
     """Serve ``worker`` (a :class:`~.sandbox.Worker`, closed at the end) warm on the Unix socket
     ``path`` until interrupted (Ctrl-C, SIGTERM).
 
@@ -111,6 +123,8 @@ def serve(worker: Any, path: Path | None = None, *, ready: Any = None) -> None:
         worker: the worker whose zygote answers the clients.
         path: the socket (default :func:`socket_path`); its folder is made mode 0700.
         ready: called with the path once the worker is warm and the socket listens.
+        handlers: further requests by ``op``, answered by the caller (the command line's
+            served commands, :mod:`procedura_brep.entry`); each after the client's handshake.
 
     Raises:
         CompileError: the worker does not start (build123d missing).
@@ -134,7 +148,7 @@ def serve(worker: Any, path: Path | None = None, *, ready: Any = None) -> None:
             ready(path)
         while True:
             conn, _ = srv.accept()
-            threading.Thread(target=_client, args=(conn, worker), daemon=True).start()
+            threading.Thread(target=_client, args=(conn, worker, handlers or {}), daemon=True).start()
     finally:
         srv.close()
         try:
@@ -142,6 +156,14 @@ def serve(worker: Any, path: Path | None = None, *, ready: Any = None) -> None:
         except OSError:
             pass
         worker.close()
+
+
+def _close_fds(fds: list[int]) -> None:
+    for fd in fds:
+        try:
+            os.close(fd)
+        except OSError:
+            pass
 
 
 def _alive(path: Path) -> bool:
@@ -154,16 +176,25 @@ def _alive(path: Path) -> bool:
         return False
 
 
-def _client(conn: socket.socket, worker: Any) -> None:
-    """One client connection: a handshake, then zygote requests forwarded one at a time."""
+def _client(conn: socket.socket, worker: Any, handlers: dict[str, Handler]) -> None:
+    """One client connection: a handshake, then zygote requests forwarded one at a time, or one
+    request of ``handlers`` (which ends the connection)."""
     lines = _Lines(conn)
+    greeted = False
     try:
         while True:
             msg = lines.read()
+            fds, lines.fds = lines.fds, []
             if msg is None:
+                _close_fds(fds)
                 return
             op = msg.get("op")
+            if op in handlers and greeted:
+                handlers[op](conn, msg, fds)  # it owns the descriptors now
+                return
+            _close_fds(fds)  # none expected
             if op == "hello":
+                greeted = True
                 _send(conn, {"digest": code_digest(), "cache_dir": worker.cache_dir, "pid": os.getpid()})
             elif op == "zygote" and isinstance(msg.get("req"), dict):
                 try:

@@ -57,7 +57,7 @@ def compile_model(source: str, *, name: str = "model", warm: bool = False) -> Co
     with interrupt.children_ignore_sigint():  # the terminal's Ctrl-C is ours to handle
         default_worker()  # starts the worker process now, returns at once
     interrupt.add_cleanup(kill_default_worker)
-    loader = threading.Thread(target=_warm_imports, name="warm-imports", daemon=True)
+    loader = threading.Thread(target=warm_imports, name="warm-imports", daemon=True)
     loader.start()
     try:
         return compile_source(source, name=name)
@@ -80,11 +80,13 @@ def settle() -> None:
     gc.freeze()
 
 
-def _warm_imports() -> None:
+def warm_imports(*, render: bool = False) -> None:
     """Import OCP and what gates and exports need while the worker boots and compiles (in a
-    thread of :func:`compile_model`). The cyclic collector is paused meanwhile (imports make
-    objects, not garbage: about 0.2 s of 1.2 s here), then what they made is frozen out of its
-    reach, as the worker does. A failure is left for the real import to report."""
+    thread of :func:`compile_model`; the warm server, ``procedura-brep serve``, calls it once,
+    with ``render`` for the renderer's modules too). The cyclic collector is paused meanwhile
+    (imports make objects, not garbage: about 0.2 s of 1.2 s here), then what they made is
+    frozen out of its reach, as the worker does. A failure is left for the real import to
+    report."""
     import gc
     was = gc.isenabled()
     gc.disable()
@@ -101,6 +103,10 @@ def _warm_imports() -> None:
             from pxr import Usd, UsdPhysics  # noqa: F401 - imported early, beside the worker's boot
         except ImportError:  # pragma: no cover - reported by doctor
             pass
+        if render:
+            import moderngl  # noqa: F401 - no context: a forked child makes its own
+
+            from ..render import api  # noqa: F401 - the server's forks draw without importing
     except Exception:  # noqa: BLE001 - the step that needs the module imports it again and says why
         log.debug("warm imports failed", exc_info=True)
     finally:
@@ -310,5 +316,5 @@ def dump_json(obj: Any) -> str:
     return json.dumps(obj, indent=2, sort_keys=False, ensure_ascii=False, default=json_default) + "\n"
 
 
-__all__ = ["SHEET_VIEWS", "BatteryVerdict", "Bundle", "GateVerdict", "compile_model", "dump_json",
+__all__ = ["SHEET_VIEWS", "BatteryVerdict", "Bundle", "GateVerdict", "compile_model", "dump_json", "warm_imports",
            "export", "export_formats", "export_mates", "gate", "gl_in_use", "sheet", "simulate"]

@@ -1,0 +1,241 @@
+"""Commands in a warm server's fork: the client (:func:`served`) and the server's side
+(:func:`run_served`); :mod:`procedura_brep.entry` is the console entry point that uses them.
+
+A cold ``procedura-brep build`` spends most of its time importing: build123d in the compile
+worker, OCP, the gates and the exporters in this process (about 1.4 s of a 2 s lamp build
+here). ``procedura-brep serve`` does those imports once; then this module, which imports only
+the standard library and :mod:`procedura_brep.program.server`, hands a command of
+:data:`SERVED` to it: its arguments, working folder, environment, umask and the terminal's
+stdin, stdout and stderr (the descriptors themselves, ``SCM_RIGHTS``). The server forks a child
+that becomes this command (:func:`run_served`): it takes the descriptors as its 0, 1 and 2, the
+folder, the environment and the umask, runs the command line's ``main`` and reports the exit
+status. Output, progress, colours and exit codes are the local run's, byte for byte, because
+the same code runs; it only started warm. Programs still compile in the sandbox: the child is
+a client of the server's zygote like any command.
+
+Never required, never stale: the command runs here when ``PROCEDURA_BREP_SERVER=off``, when no
+server answers, or when the server runs other code (:func:`~.program.server.code_digest`,
+compared by both sides); the server says so before it forks, so nothing runs twice. Ctrl-C (and
+SIGTERM, SIGHUP) reach the child: this process forwards them, and the child handles them as a
+local run does (``report.json`` with status ``interrupted``, exit 130). A client that dies
+leaves nothing running: the server interrupts its child when the connection drops, and a
+server that dies takes its children with it (SIGTERM).
+
+What the child cannot take from the client: its resource limits (``ulimit``) are the server's,
+and so is any setting read when a module was imported (none of this package's are; the
+environment is replaced before the command starts).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+#: The commands a warm server runs: those that compile, gate, render or export.
+SERVED = frozenset({"build", "check", "render", "export", "simulate", "edit"})
+#: Signals this process forwards to the served command.
+FORWARDED = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+#: How often the server checks its child and the client's connection while a command runs.
+POLL_S = 0.05
+
+
+def _command(argv: list[str]) -> str | None:
+    """The subcommand of ``argv`` (after the global ``-v``), None for help or none."""
+    rest = [a for a in argv if a not in ("-v", "--verbose")]
+    if not rest or any(a in ("--help", "-h") for a in argv):
+        return None
+    return rest[0]
+
+
+def served(argv: list[str], path: Path | None = None) -> int | None:
+    """Run ``argv`` in a fork of the warm server at ``path``; its exit status, or None when it
+    must run here (see the module doc). Writes nothing itself except when the server goes away
+    during the command (then a one-line error, status 1)."""
+    from .program.server import CONNECT_TIMEOUT_S, ENV_SWITCH, _Lines, _send, code_digest, socket_path
+    if os.environ.get(ENV_SWITCH, "").lower() in ("off", "0", "no", "false"):
+        return None
+    if _command(argv) not in SERVED:
+        return None
+    path = Path(path or socket_path())
+    if not path.exists():
+        return None
+    try:
+        for fd in (0, 1, 2):
+            os.fstat(fd)
+    except OSError:  # a closed standard stream: nothing to hand over
+        return None
+    conn = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    try:
+        conn.settimeout(CONNECT_TIMEOUT_S)
+        conn.connect(str(path))
+        lines = _Lines(conn)
+        _send(conn, {"op": "hello"})
+        hello = lines.read() or {}
+        digest = code_digest()
+        if hello.get("digest") != digest:
+            conn.close()
+            return None
+        umask = os.umask(0o022)
+        os.umask(umask)
+        request = {"op": "run", "argv": argv, "cwd": os.getcwd(), "env": dict(os.environ),
+                   "umask": umask, "digest": digest}
+        socket.send_fds(conn, [(json.dumps(request) + "\n").encode()], [0, 1, 2])
+        started = lines.read() or {}
+    except OSError:
+        conn.close()
+        return None
+    if not isinstance(started.get("pid"), int):  # refused before anything ran
+        conn.close()
+        return None
+    conn.settimeout(None)
+    if "-v" in argv or "--verbose" in argv:  # as the command line's own log lines look
+        os.write(2, f"INFO procedura_brep.entry: running in a fork of the warm server at {path} "
+                    f"(pid {started['pid']})\n".encode())
+    return _follow(lines, started["pid"])
+
+
+def _follow(lines: Any, pid: int) -> int:
+    """Forward signals to the served command ``pid`` until the server reports its status."""
+    def forward(signum: int, frame: object) -> None:
+        try:
+            os.kill(pid, signum)
+        except OSError:
+            pass
+    for sig in FORWARDED:
+        signal.signal(sig, forward)
+    while True:
+        try:
+            msg = lines.read()
+        except InterruptedError:
+            continue
+        except OSError:
+            msg = None
+        if msg is None:
+            os.write(2, b"error: the warm server (procedura-brep serve) went away during the command\n")
+            return 1
+        if isinstance(msg.get("exit"), int):
+            return int(msg["exit"])
+
+
+def run_served(conn: socket.socket, msg: dict[str, Any], fds: list[int], *,
+               command: Callable[[], None]) -> None:
+    """The server's side of ``run`` (with ``command``, the command line's ``main``, bound: a
+    :data:`~.program.server.Handler`): fork, let the child become the client's command, report
+    its exit status; interrupt it if the client goes away."""
+    from .program.server import _send, code_digest
+    argv, env = msg.get("argv"), msg.get("env")
+    ok = (len(fds) == 3 and isinstance(argv, list) and all(isinstance(a, str) for a in argv)
+          and isinstance(env, dict) and all(isinstance(k, str) and isinstance(v, str) for k, v in env.items())
+          and isinstance(msg.get("cwd"), str) and isinstance(msg.get("umask"), int)
+          and _command(argv) in SERVED)
+    if not ok or msg.get("digest") != code_digest():
+        for fd in fds:
+            os.close(fd)
+        _send(conn, {"error": "refused: other code, or not a served command"})
+        return
+    for stream in (sys.stdout, sys.stderr):
+        stream.flush()
+    pid = os.fork()
+    if pid == 0:  # the child: never returns
+        _become(conn, msg, fds, command)
+    for fd in fds:
+        os.close(fd)
+    _send(conn, {"pid": pid})
+    _send(conn, {"exit": _wait(conn, pid)})
+
+
+def _wait(conn: socket.socket, pid: int) -> int:
+    """The exit status of the served child (128 + N when signal N ended it); SIGINT to it once
+    the client's connection drops."""
+    import select
+    told = False
+    while True:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            code = os.waitstatus_to_exitcode(status)
+            return code if code >= 0 else 128 - code
+        if told:
+            time.sleep(POLL_S)
+            continue
+        readable, _, _ = select.select([conn], [], [], POLL_S)
+        if readable:
+            try:
+                gone = not conn.recv(4096)  # the client sends nothing more: only its end matters
+            except OSError:
+                gone = True
+            if gone:
+                told = True
+                os.kill(pid, signal.SIGINT)
+
+
+def _become(conn: socket.socket, msg: dict[str, Any], fds: list[int], command: Callable[[], None]) -> None:
+    """In the forked child: take the client's streams, folder, environment and umask, then run
+    the command line as the client would have; end with its exit status."""
+    code = 1
+    try:
+        conn.close()
+        os.setsid()  # not in the server's terminal session: only the client's signals reach it
+        _die_with_server()
+        for target, fd in enumerate(fds):
+            os.dup2(fd, target)
+            os.close(fd)
+        os.chdir(msg["cwd"])
+        os.umask(msg["umask"])
+        os.environ.clear()
+        os.environ.update(msg["env"])
+        _fresh_streams()
+        import atexit
+        import logging
+        atexit._clear()  # the server's exit handlers are not this command's
+        logging.root.handlers.clear()  # the command configures its own, on the new stderr
+        from . import interrupt
+        interrupt.forget()
+        sys.argv = ["procedura-brep", *msg["argv"]]
+        command()  # the command line's main: leaves with os._exit
+        code = 0
+    except SystemExit as exc:
+        code = exc.code if isinstance(exc.code, int) else 0 if exc.code is None else 1
+    except BaseException:  # noqa: BLE001 - the child must never return into the server's thread
+        import traceback
+        traceback.print_exc()
+    finally:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):
+                pass
+        os._exit(code)
+
+
+def _die_with_server() -> None:
+    """SIGTERM this child when the server dies (the command then stops as on a local SIGTERM)."""
+    try:
+        import ctypes
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM, 0, 0, 0)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):  # pragma: no cover - not Linux
+        pass
+
+
+def _fresh_streams() -> None:
+    """``sys.stdin``, ``sys.stdout`` and ``sys.stderr`` over descriptors 0-2 (now the client's),
+    buffered as Python buffers a terminal's or a file's."""
+    import io
+    unbuffered = bool(os.environ.get("PYTHONUNBUFFERED"))
+
+    def text(fd: int, mode: str) -> io.TextIOWrapper:
+        raw = io.FileIO(fd, mode, closefd=False)
+        tty = raw.isatty()
+        buffered: Any = io.BufferedReader(raw) if mode == "r" else io.BufferedWriter(raw)
+        return io.TextIOWrapper(buffered, encoding="utf-8", errors="backslashreplace" if fd == 2 else "strict",
+                                line_buffering=tty or fd == 2, write_through=unbuffered and mode == "w")
+    sys.stdin, sys.stdout, sys.stderr = text(0, "r"), text(1, "w"), text(2, "w")
+
+
+__all__ = ["SERVED", "run_served", "served"]

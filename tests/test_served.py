@@ -1,0 +1,184 @@
+"""Commands in a warm server's fork (`procedura-brep serve`, src/procedura_brep/served.py): the
+same output, files and exit codes as a local run; Ctrl-C and a client that dies stop the
+command as a local Ctrl-C does; a server of other code, an unserved command or the switch off
+run here."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from procedura_brep import served as entry
+from procedura_brep.program import server
+
+ROOT = Path(__file__).resolve().parents[1]
+LAMP = ROOT / "tests" / "program" / "lamp.py"
+ROVER = ROOT / "golden" / "rover" / "program.py"
+BAD = "from procedura_brep.program import *\n\n@part\ndef base():\n    return Box(10, 10, 1/0)\n"
+#: Files a build writes whose bytes say when and how fast (not what): not compared.
+TIMED = {"report.json", "summary.md"}
+
+
+@pytest.fixture(scope="module")
+def sock(tmp_path_factory):
+    path = tmp_path_factory.mktemp("srv") / "w.sock"
+    env = {**os.environ, "PROCEDURA_BREP_SOCKET": str(path)}
+    proc = subprocess.Popen([sys.executable, "-m", "procedura_brep", "serve"], env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 90
+    while not path.exists() and time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.1)
+    assert path.exists(), proc.stderr.read() if proc.poll() is not None else "no socket in 90 s"
+    yield path
+    proc.terminate()
+    proc.wait(10)
+
+
+def _cli(args: list[str], sock: Path, *, served: bool, cwd: Path, **kw):
+    env = {**os.environ, "PROCEDURA_BREP_SOCKET": str(sock), "PROCEDURA_BREP_CACHE": "off"}
+    env.pop("PROCEDURA_BREP_SERVER") if served else env.update(PROCEDURA_BREP_SERVER="off")
+    return subprocess.Popen([sys.executable, "-m", "procedura_brep", *args], env=env, cwd=cwd,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
+
+
+def _pid(stderr: str) -> int:
+    line = next(ln for ln in stderr.splitlines() if "running in a fork of the warm server" in ln)
+    return int(line.rsplit("(pid ", 1)[1].rstrip(")"))
+
+
+def _gone(pid: int, within_s: float = 10.0) -> bool:
+    deadline = time.monotonic() + within_s
+    while time.monotonic() < deadline:
+        try:
+            with open(f"/proc/{pid}/stat") as fh:
+                if fh.read().split(") ")[1].startswith("Z"):
+                    return True  # a zombie: exited, its parent reaps it on its next poll
+        except OSError:
+            return True
+        time.sleep(0.05)
+    return False
+
+
+@pytest.mark.slow  # a server start and two builds: over 3 s here
+def test_a_served_build_writes_what_a_local_build_writes(sock, tmp_path):
+    import re
+    (tmp_path / "lamp.py").write_text(LAMP.read_text())
+    runs = {}
+    for served in (True, False):
+        out = tmp_path / ("served" if served else "local")
+        proc = _cli(["build", "lamp.py", "-o", out.name, *(["-v"] if served else [])], sock,
+                    served=served, cwd=tmp_path)
+        stdout, stderr = proc.communicate(timeout=180)
+        runs[served] = (proc.returncode, stdout, stderr, out)
+    code, stdout, stderr, out = runs[True]
+    assert _gone(_pid(stderr))  # it ran in the server's fork (relative paths from the client's folder)
+    lcode, lstdout, _, lout = runs[False]
+    assert code == lcode == 0
+
+    def same(text: str, name: str) -> str:
+        return re.sub(r"\([0-9.]+ s,", "(T s,", text.replace(name, "DIR"))
+    assert same(stdout, "served") == same(lstdout, "local") and "status ok" in stdout
+    files = sorted(p.relative_to(out) for p in out.rglob("*") if p.is_file())
+    assert files == sorted(p.relative_to(lout) for p in lout.rglob("*") if p.is_file())
+    assert Path("sheet.png") in files and Path("model.step") in files
+    for rel in files:
+        if rel.name not in TIMED:
+            assert (out / rel).read_bytes() == (lout / rel).read_bytes(), rel
+    assert json.loads((out / "report.json").read_text())["status"] == "ok"
+
+
+@pytest.mark.slow  # a server start and two builds: over 3 s here
+def test_a_failing_program_fails_as_it_does_locally(sock, tmp_path):
+    (tmp_path / "bad.py").write_text(BAD)
+    got = []
+    for served in (True, False):
+        proc = _cli(["build", "bad.py", "-o", "out"], sock, served=served, cwd=tmp_path)
+        stdout, stderr = proc.communicate(timeout=120)
+        got.append((proc.returncode, [ln for ln in stderr.splitlines() if ln.startswith("error:")]))
+    assert got[0] == got[1] and got[0][0] == 2 and got[0][1]
+
+
+@pytest.mark.slow  # the rover's build, interrupted: over 3 s here
+@pytest.mark.parametrize("how", ["ctrl-c", "client-killed"])
+def test_an_interrupted_served_build_stops_as_a_local_one(sock, tmp_path, how):
+    proc = _cli(["build", str(ROVER), "-o", "out", "-v"], sock, served=True, cwd=tmp_path,
+                start_new_session=True)
+    assert proc.stderr is not None
+    lines = []
+    for line in proc.stderr:
+        lines.append(line)
+        if "running the gates" in line:
+            break
+    else:
+        raise AssertionError("".join(lines))
+    child = _pid("".join(lines))
+    if how == "ctrl-c":
+        os.killpg(proc.pid, signal.SIGINT)  # as a terminal sends it: the client forwards it
+        _, rest = proc.communicate(timeout=60)
+        assert proc.returncode == 130 and "error: interrupted" in rest
+    else:
+        proc.kill()  # the client dies: the server interrupts its fork
+        proc.wait(10)
+    assert _gone(child, 30.0), f"served command {child} still running"
+    report = json.loads((tmp_path / "out" / "report.json").read_text())
+    assert report["status"] == "interrupted"
+
+
+def test_the_switch_an_unserved_command_or_no_server_run_here(tmp_path, monkeypatch):
+    monkeypatch.delenv("PROCEDURA_BREP_SERVER", raising=False)
+    assert entry.served(["build", "p.py"], tmp_path / "nobody.sock") is None
+    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)  # a server that never answers
+    listener.bind(str(tmp_path / "s.sock"))
+    listener.listen(1)
+    monkeypatch.setenv("PROCEDURA_BREP_SERVER", "off")
+    t = time.monotonic()
+    assert entry.served(["build", "p.py"], tmp_path / "s.sock") is None
+    assert time.monotonic() - t < 1.0  # switched off: not even a connection
+    monkeypatch.delenv("PROCEDURA_BREP_SERVER")
+    for argv in (["serve"], ["view", "d"], ["--help"], ["build", "--help"], [], ["-v"]):
+        assert entry.served(argv, tmp_path / "s.sock") is None, argv
+    listener.close()
+
+
+def test_a_server_of_other_code_is_not_used(tmp_path, monkeypatch):
+    """The client compares the handshake's digest (a server of an edited install is ignored),
+    and the server compares the request's (it never runs a command of other code)."""
+    monkeypatch.delenv("PROCEDURA_BREP_SERVER", raising=False)
+    path = tmp_path / "s.sock"
+    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    listener.bind(str(path))
+    listener.listen(1)
+    import threading
+
+    def other() -> None:
+        conn, _ = listener.accept()
+        server._Lines(conn).read()
+        server._send(conn, {"digest": "an edited install", "cache_dir": "/x", "pid": 1})
+        conn.close()
+    t = threading.Thread(target=other, daemon=True)
+    t.start()
+    assert entry.served(["build", "p.py"], path) is None
+    t.join(5)
+    listener.close()
+    a, b = socket.socketpair()
+    r, w = os.pipe()
+    fds = [os.dup(r), os.dup(w), os.dup(w)]
+    entry.run_served(a, {"op": "run", "argv": ["build", "p.py"], "cwd": str(tmp_path), "env": {},
+                         "umask": 0o22, "digest": "an edited install"}, fds,
+                     command=lambda: pytest.fail("a refused request ran"))
+    reply = server._Lines(b).read() or {}
+    assert "error" in reply and "pid" not in reply
+    for fd in fds:  # the server closed what the refused request carried
+        with pytest.raises(OSError):
+            os.fstat(fd)
+    for x in (a, b):
+        x.close()
+    os.close(r), os.close(w)
