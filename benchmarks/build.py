@@ -14,10 +14,11 @@ temporary folder), the same way, and prints both: the before/after figure of a c
 trees take turns run by run, after one untimed build each; the builds run with bytecode caching
 on (``PYTHONDONTWRITEBYTECODE`` dropped from their environment), as an installed package has it.
 
-``--warm`` also starts ``procedura-brep serve`` (a warm compile worker on a private socket) and
-builds through it in the same fresh processes, taking turns with the cold builds: its first run
-compiles the program in the server, later runs find its parts in the server's cache (what a
-``check`` or ``render`` right after a ``build`` sees). The cold builds never use it.
+``--warm`` also starts ``procedura-brep serve`` (the warm server, on a private socket) and builds
+through it from the same fresh processes, taking turns with the cold builds: each such build
+runs in a fork of the server (src/procedura_brep/served.py), everything imported; its first run
+compiles the program in the server's worker, later runs find its parts in the server's cache
+(what a ``check`` or ``render`` right after a ``build`` sees). The cold builds never use it.
 
 Run: ``python benchmarks/build.py [--runs 3] [--formats step] [--simulate] [--only rover]
 [--before HEAD~1] [--warm] [--no-parts]``.
@@ -48,7 +49,7 @@ def cold_build(name: str, formats: str | None, *, simulate: bool = False,
                src: Path | None = None, socket: Path | None = None) -> dict[str, float]:
     """One cold build in a fresh process: ``{"wall_s", "imports_s", <report timings>}``."""
     with tempfile.TemporaryDirectory() as out:
-        cmd = [sys.executable, "-m", "procedura_brep.cli", "build", str(ROOT / "golden" / name / "program.py"),
+        cmd = [sys.executable, "-m", "procedura_brep", "build", str(ROOT / "golden" / name / "program.py"),
                "-o", out, "-q"]
         if formats:
             cmd += ["--formats", formats]

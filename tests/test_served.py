@@ -182,3 +182,22 @@ def test_a_server_of_other_code_is_not_used(tmp_path, monkeypatch):
     for x in (a, b):
         x.close()
     os.close(r), os.close(w)
+
+
+def test_a_ctrl_c_before_the_command_started_is_forwarded_once_it_has():
+    """The window between the request and the server's answer: the client holds the signal
+    (no KeyboardInterrupt, no traceback) and hands it to the command once its pid is known."""
+    sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+    relay = entry._Relay()
+    try:
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.05)  # delivered to the handler, which only holds it
+        assert relay.pending == [signal.SIGINT] and sleeper.poll() is None
+        relay.start(sleeper.pid)
+        assert sleeper.wait(10) == -signal.SIGINT
+    finally:
+        relay.pending.clear()
+        relay.restore()
+        if sleeper.poll() is None:
+            sleeper.kill()
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

@@ -58,7 +58,7 @@ def served(argv: list[str], path: Path | None = None) -> int | None:
     """Run ``argv`` in a fork of the warm server at ``path``; its exit status, or None when it
     must run here (see the module doc). Writes nothing itself except when the server goes away
     during the command (then a one-line error, status 1)."""
-    from .program.server import CONNECT_TIMEOUT_S, ENV_SWITCH, _Lines, _send, code_digest, socket_path
+    from .program.server import ENV_SWITCH, socket_path
     if os.environ.get(ENV_SWITCH, "").lower() in ("off", "0", "no", "false"):
         return None
     if _command(argv) not in SERVED:
@@ -71,6 +71,48 @@ def served(argv: list[str], path: Path | None = None) -> int | None:
             os.fstat(fd)
     except OSError:  # a closed standard stream: nothing to hand over
         return None
+    relay = _Relay()  # from here on, a Ctrl-C waits for the child's pid (or ends this process)
+    code = _ask(argv, path, relay)
+    if code is None:
+        relay.restore()
+    return code
+
+
+class _Relay:
+    """The client's SIGINT, SIGTERM and SIGHUP handler: held until the served command's pid is
+    known, then forwarded to it (a signal arriving before it is not lost)."""
+
+    def __init__(self) -> None:
+        self.pid: int | None = None
+        self.pending: list[int] = []
+        self.saved = {sig: signal.signal(sig, self.handle) for sig in FORWARDED}
+
+    def handle(self, signum: int, frame: object) -> None:
+        if self.pid is None:
+            self.pending.append(signum)
+            return
+        try:
+            os.kill(self.pid, signum)
+        except OSError:  # it has just ended: the server reports its status
+            pass
+
+    def start(self, pid: int) -> None:
+        self.pid = pid
+        for signum in self.pending:
+            self.handle(signum, None)
+
+    def restore(self) -> None:
+        """Back to the handlers before (the command runs here); a signal that came meanwhile
+        ends this process as it would have (130 for Ctrl-C)."""
+        for sig, handler in self.saved.items():
+            signal.signal(sig, handler)
+        if self.pending:
+            os._exit(128 + self.pending[0])
+
+
+def _ask(argv: list[str], path: Path, relay: _Relay) -> int | None:
+    """The handshake and the request; then follow the command to its exit status."""
+    from .program.server import CONNECT_TIMEOUT_S, _Lines, _send, code_digest
     conn = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     try:
         conn.settimeout(CONNECT_TIMEOUT_S)
@@ -98,18 +140,12 @@ def served(argv: list[str], path: Path | None = None) -> int | None:
     if "-v" in argv or "--verbose" in argv:  # as the command line's own log lines look
         os.write(2, f"INFO procedura_brep.entry: running in a fork of the warm server at {path} "
                     f"(pid {started['pid']})\n".encode())
-    return _follow(lines, started["pid"])
+    relay.start(started["pid"])
+    return _follow(lines)
 
 
-def _follow(lines: Any, pid: int) -> int:
-    """Forward signals to the served command ``pid`` until the server reports its status."""
-    def forward(signum: int, frame: object) -> None:
-        try:
-            os.kill(pid, signum)
-        except OSError:
-            pass
-    for sig in FORWARDED:
-        signal.signal(sig, forward)
+def _follow(lines: Any) -> int:
+    """The served command's exit status, once the server reports it."""
     while True:
         try:
             msg = lines.read()
