@@ -189,26 +189,35 @@ def run_served(conn: socket.socket, msg: dict[str, Any], fds: list[int], *,
 
 def _wait(conn: socket.socket, pid: int) -> int:
     """The exit status of the served child (128 + N when signal N ended it); SIGINT to it once
-    the client's connection drops."""
+    the client's connection drops. Wakes when the child ends (its pidfd), else polls."""
     import select
+    try:
+        pidfd: int | None = os.pidfd_open(pid)
+    except (AttributeError, OSError):  # pragma: no cover - before Linux 5.3: poll
+        pidfd = None
     told = False
-    while True:
-        done, status = os.waitpid(pid, os.WNOHANG)
-        if done:
-            code = os.waitstatus_to_exitcode(status)
-            return code if code >= 0 else 128 - code
-        if told:
-            time.sleep(POLL_S)
-            continue
-        readable, _, _ = select.select([conn], [], [], POLL_S)
-        if readable:
-            try:
-                gone = not conn.recv(4096)  # the client sends nothing more: only its end matters
-            except OSError:
-                gone = True
-            if gone:
-                told = True
-                os.kill(pid, signal.SIGINT)
+    try:
+        while True:
+            done, status = os.waitpid(pid, os.WNOHANG)
+            if done:
+                code = os.waitstatus_to_exitcode(status)
+                return code if code >= 0 else 128 - code
+            watch = ([] if told else [conn]) + ([] if pidfd is None else [pidfd])
+            if not watch:
+                time.sleep(POLL_S)
+                continue
+            readable, _, _ = select.select(watch, [], [], POLL_S if pidfd is None else 5.0)
+            if conn in readable:
+                try:
+                    gone = not conn.recv(4096)  # the client sends nothing more: only its end matters
+                except OSError:
+                    gone = True
+                if gone:
+                    told = True
+                    os.kill(pid, signal.SIGINT)
+    finally:
+        if pidfd is not None:
+            os.close(pidfd)
 
 
 def _become(conn: socket.socket, msg: dict[str, Any], fds: list[int], command: Callable[[], None]) -> None:
