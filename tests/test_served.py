@@ -95,6 +95,24 @@ def test_a_served_build_writes_what_a_local_build_writes(sock, tmp_path):
     assert json.loads((out / "report.json").read_text())["status"] == "ok"
 
 
+@pytest.mark.slow  # two builds at once and two checks: over 3 s here
+def test_served_commands_run_side_by_side_and_check_reads_as_locally(sock, tmp_path):
+    (tmp_path / "lamp.py").write_text(LAMP.read_text())
+    both = [_cli(["build", "lamp.py", "-o", f"out{i}", "-q"], sock, served=True, cwd=tmp_path)
+            for i in range(2)]
+    for proc in both:
+        proc.communicate(timeout=180)
+        assert proc.returncode == 0
+    for rel in ("model.step", "model.glb", "mates.json", "sheet.png"):
+        assert (tmp_path / "out0" / rel).read_bytes() == (tmp_path / "out1" / rel).read_bytes()
+    checks = []
+    for served in (True, False):
+        proc = _cli(["check", "lamp.py"], sock, served=served, cwd=tmp_path)
+        stdout, _ = proc.communicate(timeout=180)
+        checks.append((proc.returncode, stdout))
+    assert checks[0] == checks[1] and checks[0][0] == 0 and "all gates pass" in checks[0][1]
+
+
 @pytest.mark.slow  # a server start and two builds: over 3 s here
 def test_a_failing_program_fails_as_it_does_locally(sock, tmp_path):
     (tmp_path / "bad.py").write_text(BAD)
