@@ -134,7 +134,7 @@ def add_cleanup(fn: Callable[[], None]) -> None:
 
 def forget() -> None:
     """Start over in a forked child that will run a command of its own (a warm server's run,
-    :mod:`procedura_brep.entry`): no cleanups, no shutdown under way, SIGINT and SIGTERM at
+    :mod:`procedura_brep.served`): no cleanups, no shutdown under way, SIGINT and SIGTERM at
     their defaults and no wake-up pipe (the parent's watcher thread did not survive the fork),
     so :func:`install` installs afresh. Main thread only (a forked child's one thread is)."""
     global _installed

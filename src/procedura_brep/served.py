@@ -138,7 +138,7 @@ def _ask(argv: list[str], path: Path, relay: _Relay) -> int | None:
         return None
     conn.settimeout(None)
     if "-v" in argv or "--verbose" in argv:  # as the command line's own log lines look
-        os.write(2, f"INFO procedura_brep.entry: running in a fork of the warm server at {path} "
+        os.write(2, f"INFO procedura_brep.served: running in a fork of the warm server at {path} "
                     f"(pid {started['pid']})\n".encode())
     relay.start(started["pid"])
     return _follow(lines)
@@ -178,7 +178,13 @@ def run_served(conn: socket.socket, msg: dict[str, Any], fds: list[int], *,
         return
     for stream in (sys.stdout, sys.stderr):
         stream.flush()
-    pid = os.fork()
+    try:
+        pid = os.fork()
+    except OSError as exc:  # no process to spare: the client runs the command itself
+        for fd in fds:
+            os.close(fd)
+        _send(conn, {"error": f"cannot fork: {exc}"})
+        return
     if pid == 0:  # the child: never returns
         _become(conn, msg, fds, command)
     for fd in fds:

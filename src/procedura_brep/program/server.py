@@ -1,5 +1,9 @@
 """A warm compile worker that later command-line calls reuse: ``procedura-brep serve``.
 
+(The command line also hands it whole commands to run in its forks, a request this module
+leaves to a handler its caller passes, :mod:`procedura_brep.served`; what follows is the
+compile worker's side.)
+
 A cold command pays for starting the compile worker (a Python process importing build123d, 2-3
 s here) before its first compile. ``serve`` keeps one :class:`~.sandbox.Worker` warm behind a
 Unix socket; :func:`~.sandbox.default_worker` of any later process connects to it when it is
@@ -124,7 +128,7 @@ def serve(worker: Any, path: Path | None = None, *, ready: Any = None,
         path: the socket (default :func:`socket_path`); its folder is made mode 0700.
         ready: called with the path once the worker is warm and the socket listens.
         handlers: further requests by ``op``, answered by the caller (the command line's
-            served commands, :mod:`procedura_brep.entry`); each after the client's handshake.
+            served commands, :mod:`procedura_brep.served`); each after the client's handshake.
 
     Raises:
         CompileError: the worker does not start (build123d missing).
