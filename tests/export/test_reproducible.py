@@ -151,3 +151,18 @@ def test_a_reference_inside_a_geometry_string_is_not_one() -> None:
     assert "#1 = FOO('part #3');" in out and "COLOUR_RGB" in out
     data = "#1 = A('x;y');\n#2 = B(#1);"
     assert [off for _, off in step_order._split_records(data)] == [len("#1 = A('x;y');"), len(data)]
+
+
+def test_the_colour_section_is_found_in_the_text_not_inside_a_string() -> None:
+    """The section's start is searched for in the text (the geometry before it is never parsed
+    record by record): a line inside a geometry string that reads like a presentation record is
+    not its start, nor is one that does not begin a record."""
+    data = ("#1 = FOO('a name;\n#7 = STYLED_ITEM(''x'',(),#1);');\n#4 = BAR(#1,\n"
+            "#8 = STYLED_ITEM(#1));\n#2 = STYLED_ITEM('color',(#3),#1);\n#3 = COLOUR_RGB('',1.,0.,0.);\n")
+    at = step_order._section_start(data)
+    assert at is not None and data[at:].startswith("#2 = STYLED_ITEM('color'")
+    assert step_order._section_start("#1 = FOO('STYLED_ITEM(');\n") is None
+    text = f"ISO-10303-21;\nHEADER;\nENDSEC;\nDATA;\n{data}ENDSEC;\nEND-ISO-10303-21;\n"
+    out = step_order._canonical(text)
+    assert out.startswith(text[:text.index("#2 = STYLED_ITEM")])
+    assert "#2 = STYLED_ITEM('color',(#3),#1);\n#3 = COLOUR_RGB('',1.,0.,0.);\nENDSEC;" in out

@@ -125,6 +125,23 @@ def canonical_step(text: str) -> str:
         return text
 
 
+#: The start of a presentation record: at a line's start, ``#n =``, an optional ``(`` (a complex
+#: entity), then one of :data:`PRESENTATION_TYPES` and its ``(``.
+_OPENING = re.compile(r"^#\d+\s*=\s*[(\s]*(?:" + "|".join(PRESENTATION_TYPES) + r")\s*\(", re.M)
+
+
+def _section_start(data: str) -> int | None:
+    """The offset in ``data`` (a DATA section body) of the first presentation record, or None:
+    the first match of :data:`_OPENING` outside strings (an even count of apostrophes before
+    it) that starts a record (only blanks since the previous record's ``;``). Found in the text,
+    so the geometry before it (nearly all of a large file) is never parsed record by record."""
+    for m in _OPENING.finditer(data):
+        at = m.start()
+        if data.count("'", 0, at) % 2 == 0 and (not data[:at].strip() or data[:at].rstrip().endswith(";")):
+            return at
+    return None
+
+
 def _canonical(text: str) -> str:
     """:func:`canonical_step`, raising :class:`KernelError` where it cannot apply the rule."""
     begin = text.find("\nDATA;\n")
@@ -132,21 +149,19 @@ def _canonical(text: str) -> str:
     if begin < 0 or end < begin:
         raise KernelError("STEP text has no DATA section")
     body_start = begin + len("\nDATA;\n")
-    records = _split_records(text[body_start:end])
-    parsed: list[tuple[int, str]] = []
-    for rec, _ in records:
+    data = text[body_start:end]
+    start = _section_start(data)
+    if start is None:
+        return text
+    tail: list[tuple[int, str]] = []
+    for rec, _ in _split_records(data[start:]):
         m = _ID.match(rec)
         if m is None:
             raise KernelError(f"STEP record without an entity id: {rec[:40]!r}")
-        parsed.append((int(m.group(1)), rec[m.end():]))
-    first = next((k for k, (_, body) in enumerate(parsed)
-                  if body.lstrip("( ").split("(", 1)[0].strip() in PRESENTATION_TYPES), None)
-    if first is None:
-        return text
-    tail = parsed[first:]
+        tail.append((int(m.group(1)), rec[m.end():]))
     ids = [i for i, _ in tail]
     tail_ids = set(ids)
-    head_text = text[body_start:body_start + records[first - 1][1]] if first else ""
+    head_text = data[:start]
     if {int(r) for r in _REF.findall(_STRING.sub("", head_text))} & tail_ids:  # ids and references
         raise KernelError("the STEP colour section is referenced by geometry entities; "
                           "cannot order it deterministically")
@@ -180,7 +195,5 @@ def _canonical(text: str) -> str:
         raise KernelError("the STEP colour section has a reference cycle; cannot order it")
     mapping = dict(zip(order, sorted(ids)))
     lines = [_wrap(f"#{mapping[i]} = {_renumber(bodies[i], mapping)};") for i in order]
-    cut = body_start + (records[first - 1][1] if first else 0)
-    if first and text[cut] == "\n":
-        cut += 1
+    cut = body_start + start
     return text[:cut] + "\n".join(lines) + "\n" + text[end:]
