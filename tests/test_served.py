@@ -219,3 +219,23 @@ def test_a_ctrl_c_before_the_command_started_is_forwarded_once_it_has():
         if sleeper.poll() is None:
             sleeper.kill()
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_a_working_folder_gone_before_the_fork_took_it_is_one_error_line(tmp_path, monkeypatch):
+    """The client's folder vanished between its request and its fork's chdir: the command ends
+    with exit 2 and one line on the client's stderr (no traceback), and the command line's main
+    never runs."""
+    a, b = socket.socketpair()
+    r, w = os.pipe()
+    fds = [os.open(os.devnull, os.O_RDONLY), os.dup(w), os.dup(w)]
+    os.close(w)
+    entry.run_served(a, {"op": "run", "argv": ["build", "p.py"], "cwd": str(tmp_path / "gone"),
+                         "env": {}, "umask": 0o22, "digest": server.code_digest()}, fds,
+                     command=lambda: os._exit(99))
+    lines = server._Lines(b)
+    assert isinstance((lines.read() or {}).get("pid"), int)
+    assert lines.read() == {"exit": 2}
+    with os.fdopen(r) as err:
+        text = err.read()
+    assert text.startswith("error: cannot enter the working folder") and "Traceback" not in text
+    a.close(), b.close()

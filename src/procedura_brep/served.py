@@ -178,6 +178,7 @@ def run_served(conn: socket.socket, msg: dict[str, Any], fds: list[int], *,
         return
     for stream in (sys.stdout, sys.stderr):
         stream.flush()
+    server = os.getpid()
     try:
         pid = os.fork()
     except OSError as exc:  # no process to spare: the client runs the command itself
@@ -186,11 +187,18 @@ def run_served(conn: socket.socket, msg: dict[str, Any], fds: list[int], *,
         _send(conn, {"error": f"cannot fork: {exc}"})
         return
     if pid == 0:  # the child: never returns
-        _become(conn, msg, fds, command)
+        _become(conn, msg, fds, command, server=server)
     for fd in fds:
         os.close(fd)
-    _send(conn, {"pid": pid})
-    _send(conn, {"exit": _wait(conn, pid)})
+    try:
+        _send(conn, {"pid": pid})
+    except OSError:  # the client is already gone: stop its command (and still reap it)
+        os.kill(pid, signal.SIGINT)
+    code = _wait(conn, pid)
+    try:
+        _send(conn, {"exit": code})
+    except OSError:  # the client went away meanwhile: nobody to tell
+        pass
 
 
 def _wait(conn: socket.socket, pid: int) -> int:
@@ -226,18 +234,23 @@ def _wait(conn: socket.socket, pid: int) -> int:
             os.close(pidfd)
 
 
-def _become(conn: socket.socket, msg: dict[str, Any], fds: list[int], command: Callable[[], None]) -> None:
+def _become(conn: socket.socket, msg: dict[str, Any], fds: list[int], command: Callable[[], None], *,
+            server: int) -> None:
     """In the forked child: take the client's streams, folder, environment and umask, then run
     the command line as the client would have; end with its exit status."""
     code = 1
     try:
         conn.close()
         os.setsid()  # not in the server's terminal session: only the client's signals reach it
-        _die_with_server()
+        _die_with(server)
         for target, fd in enumerate(fds):
             os.dup2(fd, target)
             os.close(fd)
-        os.chdir(msg["cwd"])
+        try:
+            os.chdir(msg["cwd"])
+        except OSError as exc:  # the client's folder went away meanwhile: its mistake, one line
+            os.write(2, f"error: cannot enter the working folder {msg['cwd']}: {exc.strerror}\n".encode())
+            os._exit(2)
         os.umask(msg["umask"])
         os.environ.clear()
         os.environ.update(msg["env"])
@@ -265,13 +278,16 @@ def _become(conn: socket.socket, msg: dict[str, Any], fds: list[int], command: C
         os._exit(code)
 
 
-def _die_with_server() -> None:
-    """SIGTERM this child when the server dies (the command then stops as on a local SIGTERM)."""
+def _die_with(server: int) -> None:
+    """SIGTERM this child when the server dies (the command then stops as on a local SIGTERM);
+    a server already gone before the request took effect ends it at once."""
     try:
         import ctypes
         ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM, 0, 0, 0)  # PR_SET_PDEATHSIG
     except (OSError, AttributeError):  # pragma: no cover - not Linux
-        pass
+        return
+    if os.getppid() != server:
+        os._exit(128 + signal.SIGTERM)
 
 
 def _fresh_streams() -> None:
