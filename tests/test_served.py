@@ -239,3 +239,50 @@ def test_a_working_folder_gone_before_the_fork_took_it_is_one_error_line(tmp_pat
         text = err.read()
     assert text.startswith("error: cannot enter the working folder") and "Traceback" not in text
     a.close(), b.close()
+
+
+def _fake_server(path: Path, then):
+    """A server of this code that takes one run request and then does ``then(conn)``."""
+    import threading
+    listener = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    listener.bind(str(path))
+    listener.listen(1)
+
+    def serve_one() -> None:
+        conn, _ = listener.accept()
+        lines = server._Lines(conn)
+        lines.read()
+        server._send(conn, {"digest": server.code_digest(), "cache_dir": "/x", "pid": 1})
+        assert (lines.read() or {}).get("op") == "run"
+        for fd in lines.fds:
+            os.close(fd)
+        then(conn)
+        listener.close()
+    t = threading.Thread(target=serve_one, daemon=True)
+    t.start()
+    return t
+
+
+@pytest.mark.parametrize("then,expect", [
+    ("refuse", None),         # refused before it forked: the command runs here
+    ("vanish", 1),            # gone without an answer: it may have forked, so never run here too
+    ("ctrl-c", 130),          # a Ctrl-C while waiting: stop, and the dropped connection stops it there
+])
+def test_what_a_client_does_once_it_has_asked(tmp_path, monkeypatch, capfd, then, expect):
+    monkeypatch.delenv("PROCEDURA_BREP_SERVER", raising=False)
+    path = tmp_path / "s.sock"
+    actions = {"refuse": lambda c: (server._send(c, {"error": "refused"}), c.close()),
+               "vanish": lambda c: c.close(),
+               "ctrl-c": lambda c: (os.kill(os.getpid(), signal.SIGINT), time.sleep(1.0), c.close())}
+    t = _fake_server(path, actions[then])
+    saved = {sig: signal.getsignal(sig) for sig in entry.FORWARDED}
+    try:
+        assert entry.served(["build", "p.py"], path) == expect
+        # a command run here finds the handlers as they were; a served one's client exits now
+        assert (signal.getsignal(signal.SIGINT) is saved[signal.SIGINT]) == (expect is None)
+    finally:
+        for sig, handler in saved.items():
+            signal.signal(sig, handler)
+    t.join(5)
+    err = capfd.readouterr().err
+    assert ("went away" in err) == (then == "vanish")

@@ -42,8 +42,11 @@ from typing import Any
 SERVED = frozenset({"build", "check", "render", "export", "simulate", "edit"})
 #: Signals this process forwards to the served command.
 FORWARDED = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
-#: How often the server checks its child and the client's connection while a command runs.
+#: How often the server checks its child and the client's connection while a command runs
+#: (where it cannot wait on the child's pidfd), and the client a pending signal.
 POLL_S = 0.05
+#: How long a client waits for the server to start its command once asked (it forks at once).
+ANSWER_S = 30.0
 
 
 def _command(argv: list[str]) -> str | None:
@@ -129,19 +132,50 @@ def _ask(argv: list[str], path: Path, relay: _Relay) -> int | None:
         request = {"op": "run", "argv": argv, "cwd": os.getcwd(), "env": dict(os.environ),
                    "umask": umask, "digest": digest}
         socket.send_fds(conn, [(json.dumps(request) + "\n").encode()], [0, 1, 2])
-        started = lines.read() or {}
-    except OSError:
+    except OSError:  # no answer, or another server's: nothing was asked to run
         conn.close()
         return None
-    if not isinstance(started.get("pid"), int):  # refused before anything ran
+    # asked: from here the command may be running there, so it never also runs here
+    started = _answer(conn, lines, relay)
+    if started is None:
+        return 1
+    if isinstance(started, int):
+        return started
+    if "error" in started:  # refused before anything ran: run it here
         conn.close()
         return None
+    if not isinstance(started.get("pid"), int):  # it went away mid-request: its fork may have run
+        conn.close()
+        os.write(2, b"error: the warm server (procedura-brep serve) went away as it took the command\n")
+        return 1
     conn.settimeout(None)
     if "-v" in argv or "--verbose" in argv:  # as the command line's own log lines look
         os.write(2, f"INFO procedura_brep.served: running in a fork of the warm server at {path} "
                     f"(pid {started['pid']})\n".encode())
     relay.start(started["pid"])
     return _follow(lines)
+
+
+def _answer(conn: socket.socket, lines: Any, relay: _Relay) -> dict[str, Any] | int | None:
+    """The server's answer to a run request: its message; an exit status when a signal came
+    first (the connection is closed, so the server stops the command if it started one); None,
+    with a one-line error, when the server said nothing within :data:`ANSWER_S`."""
+    deadline = time.monotonic() + ANSWER_S
+    conn.settimeout(POLL_S)
+    while time.monotonic() < deadline:
+        if relay.pending:
+            conn.close()
+            return 128 + relay.pending[0]
+        try:
+            return lines.read() or {}  # {}: the connection ended without an answer
+        except TimeoutError:
+            continue
+        except OSError:
+            break
+    conn.close()
+    os.write(2, b"error: the warm server (procedura-brep serve) took the command but did not start it; "
+                b"PROCEDURA_BREP_SERVER=off runs commands without it\n")
+    return None
 
 
 def _follow(lines: Any) -> int:
