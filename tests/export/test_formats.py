@@ -253,3 +253,34 @@ def test_usd_wheelless_root_welded_to_world(bundle):
     assert j and j.GetBody0Rel().GetTargets() == []
     assert [str(t) for t in j.GetBody1Rel().GetTargets()] == ["/lamp/base"]
     assert stage.GetPrimAtPath("/lamp").HasAPI(UsdPhysics.ArticulationRootAPI)
+
+
+def test_usd_work_stays_on_the_calling_thread(tmp_path):
+    """A process that made a stage must still fork safely (the build's children, a warm
+    server's commands): USD's work runs on the calling thread, so no worker thread (TBB) is
+    left for a forked child to wait on. Checked in a fresh process: making, writing, opening
+    and validating a model's stage start no thread."""
+    import subprocess
+    import sys
+    code = (
+        "import os\n"
+        "from pathlib import Path\n"
+        "from procedura_brep.testing.models import compiled\n"
+        "from procedura_brep.export.meshes import collision_pieces, part_mesh\n"
+        "from procedura_brep.export.usd import usda_text\n"
+        "from procedura_brep.sim.fidelity import _validator_names\n"
+        "from pxr import Usd, UsdValidation\n"
+        f"model = compiled(Path({str(LAMP)!r}).read_text(), name='lamp')\n"
+        "for p in model.parts:\n"  # meshes and hulls first: numpy's and scipy's BLAS pools
+        "    part_mesh(p), collision_pieces(p)\n"  # start with them (and survive a fork)
+        "threads = len(os.listdir('/proc/self/task'))\n"
+        f"path = Path({str(tmp_path / 'm.usda')!r})\n"
+        "path.write_text(usda_text(model))\n"
+        "names = _validator_names()\n"
+        "ctx = UsdValidation.ValidationContext([UsdValidation.ValidationRegistry().GetOrLoadValidatorByName(n) for n in names])\n"
+        "ctx.Validate(Usd.Stage.Open(str(path)))\n"
+        "print(threads, len(os.listdir('/proc/self/task')))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    before, after = map(int, out.stdout.split())
+    assert after == before

@@ -93,10 +93,28 @@ def _material(stage, root: str, m: Material):
     return mat
 
 
+def serial_usd() -> None:
+    """Keep OpenUSD's work on the calling thread (``Work.SetConcurrencyLimit(1)``) in this
+    process; call it before any stage is made, opened or validated.
+
+    By default USD starts a pool of worker threads (TBB) the first time a stage is made (two
+    here). This tool forks: the build's limited children, the overlapped export, a warm
+    server's commands. A child forked after that pool started inherits its state without its
+    threads, and the next stage it makes can wait on them for ever: in CI an export child spun
+    in ``Usd.Stage.CreateInMemory()`` for eleven minutes, until killed, under a Ray bench worker
+    whose earlier tasks had made and validated stages. A model's stage is a few hundred prims,
+    so one thread costs nothing measurable. Setting it through the API prints nothing, unlike
+    ``PXR_WORK_THREAD_LIMIT``, which prints a banner on every import."""
+    from pxr import Work
+    if Work.GetConcurrencyLimit() != 1:
+        Work.SetConcurrencyLimit(1)
+
+
 def usd_stage(model: CompiledModel, *, art: Articulation | None = None,
               masses: dict[str, MassProps] | None = None):
     """An in-memory Usd.Stage of the articulated model."""
     from pxr import Gf, Tf, Usd, UsdGeom, UsdPhysics, UsdShade
+    serial_usd()
     art = art or articulate(model)
     masses = masses or link_masses(model, art)
     stage = Usd.Stage.CreateInMemory()

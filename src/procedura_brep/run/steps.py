@@ -101,6 +101,9 @@ def warm_imports(*, render: bool = False) -> None:
         try:
             import mujoco  # noqa: F401 - imported early, beside the worker's boot
             from pxr import Usd, UsdPhysics  # noqa: F401 - imported early, beside the worker's boot
+
+            from ..export.usd import serial_usd
+            serial_usd()  # before this process or any it forks makes a stage
         except ImportError:  # pragma: no cover - reported by doctor
             pass
         if render:

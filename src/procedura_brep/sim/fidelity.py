@@ -218,6 +218,9 @@ def _mimic_problems(art: Articulation, u, m) -> list[str]:
 #: Validators B6 runs (every registered physics validator plus stage metadata).
 def _validator_names() -> list[str]:
     from pxr import UsdValidation
+
+    from ..export.usd import serial_usd
+    serial_usd()  # validators run on USD's work threads otherwise (fork safety: see serial_usd)
     reg = UsdValidation.ValidationRegistry()
     return [md.name for md in reg.GetAllValidatorMetadata()
             if md.name.startswith(("usdPhysicsValidators:", "usdGeomValidators:StageMetadata"))]
@@ -228,7 +231,8 @@ def check_b6(art: Articulation, usda: Path) -> CheckResult:
     articulation root."""
     from pxr import Usd, UsdPhysics, UsdValidation
 
-    from ..export.usd import usd_joint_frames
+    from ..export.usd import serial_usd, usd_joint_frames
+    serial_usd()  # before the stage is opened and validated (fork safety: see serial_usd)
     stage = Usd.Stage.Open(str(usda))
     names = _validator_names()
     reg = UsdValidation.ValidationRegistry()
@@ -271,7 +275,8 @@ def bundle_joint_frames(root: Path, art: Articulation
     from pxr import Usd
 
     from ..export.urdf import ROBOT_FILES
-    from ..export.usd import usd_joint_frames
+    from ..export.usd import serial_usd, usd_joint_frames
+    serial_usd()  # before the stage is opened (fork safety: see serial_usd)
     base = np.array(art.root.frame, dtype=float)
     base[:3, 3] /= 1000.0
 
