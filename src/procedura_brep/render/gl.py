@@ -173,11 +173,7 @@ class Renderer:
             nrm = ctx.renderbuffer((ss, ss), 4)
             depth = ctx.depth_renderbuffer((ss, ss))
             fbo = ctx.framebuffer(color_attachments=[color, ids, nrm], depth_attachment=depth)
-            vbo = vao = None
-            if len(vertices):
-                vbo = ctx.buffer(vertices.tobytes())
-                vao = ctx.vertex_array(self.prog, [(vbo, "3f 3f 3f 3f 2f 1f", "in_pos", "in_nrm",
-                                                    "in_pcol", "in_base", "in_mr", "in_id")])
+            vbo, vao = self._scene(vertices)
             try:
                 fbo.use()
                 ctx.viewport = (0, 0, ss, ss)
@@ -224,11 +220,7 @@ class Renderer:
             small = ctx.renderbuffer((size, size), 4)
             down = ctx.framebuffer(color_attachments=[small])
             quad = ctx.vertex_array(self.box, [])
-            vbo = vao = None
-            if len(vertices):
-                vbo = ctx.buffer(vertices.tobytes())
-                vao = ctx.vertex_array(self.prog, [(vbo, "3f 3f 3f 3f 2f 1f", "in_pos", "in_nrm",
-                                                    "in_pcol", "in_base", "in_mr", "in_id")])
+            vbo, vao = self._scene(vertices)
             try:
                 self.prog["u_mode"].value = MODE_CODES[mode]
                 self.box["u_s"].value = SUPERSAMPLE
@@ -254,6 +246,15 @@ class Renderer:
                     if obj is not None:
                         obj.release()
         return out
+
+    def _scene(self, vertices: np.ndarray) -> tuple[Any, Any]:
+        """The vertex buffer and array of the interleaved ``vertices`` (None, None when empty):
+        the caller releases them."""
+        if not len(vertices):
+            return None, None
+        vbo = self.ctx.buffer(vertices.tobytes())
+        return vbo, self.ctx.vertex_array(self.prog, [(vbo, "3f 3f 3f 3f 2f 1f", "in_pos", "in_nrm",
+                                                       "in_pcol", "in_base", "in_mr", "in_id")])
 
     def _set_camera(self, cam: Camera) -> None:
         self.prog["u_vp"].write(cam.view_proj.T.astype("f4").tobytes())
