@@ -74,7 +74,7 @@ class Limited:
         parent = os.getpid()
         pid = os.fork()
         if pid == 0:  # child: never returns
-            _die_with(parent)
+            die_with(parent)
             _child(fn, w, r, self.limits)
         os.close(w)
         self.pid, self._r = pid, r
@@ -118,13 +118,15 @@ class Limited:
                 pass
 
 
-def _die_with(parent: int) -> None:
-    """SIGKILL this child when the process that forked it dies (a killed CLI must not leave
-    its limited child running, since the parent is what enforces the wall-clock limit)."""
+def die_with(parent: int, sig: int = signal.SIGKILL) -> None:
+    """Have ``sig`` sent to this forked child when ``parent``, the process that forked it, dies
+    (a killed CLI must not leave its limited child running, since the parent is what enforces
+    the wall-clock limit; a warm server's command gets SIGTERM, to stop as a local one does).
+    A parent already gone before the request took effect ends the child at once."""
     try:
         import ctypes
         libc = ctypes.CDLL("libc.so.6", use_errno=True)
-        libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+        libc.prctl(PR_SET_PDEATHSIG, sig, 0, 0, 0)
     except (OSError, AttributeError):  # pragma: no cover - not Linux
         return
     if os.getppid() != parent:  # it died before the prctl
@@ -243,4 +245,4 @@ def _kill(pid: int) -> None:
         pass
 
 
-__all__ = ["ChildFailure", "Limited", "run_limited"]
+__all__ = ["ChildFailure", "Limited", "die_with", "run_limited"]

@@ -199,15 +199,14 @@ def run_served(conn: socket.socket, msg: dict[str, Any], fds: list[int], *,
     """The server's side of ``run`` (with ``command``, the command line's ``main``, bound: a
     :data:`~.program.server.Handler`): fork, let the child become the client's command, report
     its exit status; interrupt it if the client goes away."""
-    from .program.server import _send, code_digest
+    from .program.server import _close_fds, _send, code_digest
     argv, env = msg.get("argv"), msg.get("env")
     ok = (len(fds) == 3 and isinstance(argv, list) and all(isinstance(a, str) for a in argv)
           and isinstance(env, dict) and all(isinstance(k, str) and isinstance(v, str) for k, v in env.items())
           and isinstance(msg.get("cwd"), str) and isinstance(msg.get("umask"), int)
           and _command(argv) in SERVED)
     if not ok or msg.get("digest") != code_digest():
-        for fd in fds:
-            os.close(fd)
+        _close_fds(fds)
         _send(conn, {"error": "refused: other code, or not a served command"})
         return
     for stream in (sys.stdout, sys.stderr):
@@ -216,14 +215,12 @@ def run_served(conn: socket.socket, msg: dict[str, Any], fds: list[int], *,
     try:
         pid = os.fork()
     except OSError as exc:  # no process to spare: the client runs the command itself
-        for fd in fds:
-            os.close(fd)
+        _close_fds(fds)
         _send(conn, {"error": f"cannot fork: {exc}"})
         return
     if pid == 0:  # the child: never returns
         _become(conn, msg, fds, command, server=server)
-    for fd in fds:
-        os.close(fd)
+    _close_fds(fds)
     try:
         _send(conn, {"pid": pid})
     except OSError:  # the client is already gone: stop its command (and still reap it)
@@ -276,7 +273,8 @@ def _become(conn: socket.socket, msg: dict[str, Any], fds: list[int], command: C
     try:
         conn.close()
         os.setsid()  # not in the server's terminal session: only the client's signals reach it
-        _die_with(server)
+        from .limited import die_with
+        die_with(server, signal.SIGTERM)  # it stops as a local command does on SIGTERM
         for target, fd in enumerate(fds):
             os.dup2(fd, target)
             os.close(fd)
@@ -310,18 +308,6 @@ def _become(conn: socket.socket, msg: dict[str, Any], fds: list[int], command: C
             except (OSError, ValueError):
                 pass
         os._exit(code)
-
-
-def _die_with(server: int) -> None:
-    """SIGTERM this child when the server dies (the command then stops as on a local SIGTERM);
-    a server already gone before the request took effect ends it at once."""
-    try:
-        import ctypes
-        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGTERM, 0, 0, 0)  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):  # pragma: no cover - not Linux
-        return
-    if os.getppid() != server:
-        os._exit(128 + signal.SIGTERM)
 
 
 def _fresh_streams() -> None:
