@@ -104,21 +104,6 @@ def ours(tmp: Path, src: Path | None = None, sock: Path | None = None) -> tuple[
     return timed([sys.executable, "-m", "procedura_brep", "build", str(LAMP), "-o", str(out), "-q"], env)
 
 
-def start_server(tmp: Path) -> tuple[subprocess.Popen[bytes], Path]:
-    """``procedura-brep serve`` on a socket in ``tmp``, once it listens."""
-    sock = tmp / "srv" / "w.sock"
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
-    env["PROCEDURA_BREP_SOCKET"] = str(sock)
-    proc = subprocess.Popen([sys.executable, "-m", "procedura_brep", "serve"], env=env,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    deadline = time.monotonic() + 120
-    while not sock.exists():
-        if proc.poll() is not None or time.monotonic() > deadline:
-            raise SystemExit("procedura-brep serve did not start")
-        time.sleep(0.1)
-    return proc, sock
-
-
 def peer(tmp: Path, folder: Path) -> tuple[float, float]:
     run = tmp / "peer"
     shutil.rmtree(run, ignore_errors=True)
@@ -141,7 +126,11 @@ def main() -> None:
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as d:
         tmp = Path(d)
-        server, sock = start_server(tmp) if args.server else (None, None)
+        server = sock = None
+        if args.server:
+            from build import start_server  # benchmarks/build.py, beside this script
+            sock = tmp / "srv" / "w.sock"
+            server = start_server(sock)
         try:
             run_pairs(args, tmp, sock)
         finally:
