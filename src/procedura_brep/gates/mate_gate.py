@@ -284,7 +284,11 @@ def bearing_area(model: CompiledModel, mate: CompiledMate) -> float:
     """The registration (bearing) area (mm^2) of ``mate``'s child on its parent, as the gate
     measures it: the child's body only, within :func:`bearing_radius` of the mate axis. Cached
     by :func:`pair_key` (the gate and the articulation evidence both ask)."""
-    key = pair_key(model, mate)
+    return _bearing_area(model, mate, pair_key(model, mate))
+
+
+def _bearing_area(model: CompiledModel, mate: CompiledMate, key: tuple[Any, ...]) -> float:
+    """:func:`bearing_area` under ``key``, the mate's :func:`pair_key` already made."""
     hit = _BEARING.get(key)
     if hit is not None:
         return float(hit)
@@ -308,7 +312,7 @@ def measure(model: CompiledModel, mate: CompiledMate) -> MateMeasure:
                                                  + parent.placement[:3, 3])
         return MateMeasure(mate.name, *vals, point)
     cg, pg = part_geometry(child), part_geometry(parent)
-    area = bearing_area(model, mate)
+    area = _bearing_area(model, mate, key)
     com = common(cg, child.shape(), pg, parent.shape())
     rad, half = region(mate)
     near = [s for s in com.solids if s.touches(mate.world_frame, rad, half)]
