@@ -112,7 +112,7 @@ def main_callback(verbose: Annotated[bool, typer.Option("--verbose", "-v", help=
     _State.verbose = verbose
     handler = logging.StreamHandler()
     handler.setFormatter(_SafeFormatter("%(levelname)s %(name)s: %(message)s"))
-    # -v is this tool's own detail: other libraries (OpenGL, MuJoCo, trimesh ...) stay at WARNING
+    # -v is this tool's own detail: other libraries (OpenGL, MuJoCo, USD ...) stay at WARNING
     logging.basicConfig(level=logging.WARNING, handlers=[handler])
     logging.getLogger("procedura_brep").setLevel(logging.DEBUG if verbose else logging.WARNING)
 

@@ -86,7 +86,6 @@ def run_checks(*, model: str | None, base_url: str | None, ping: bool) -> list[C
         _kernel(),
         _module("mujoco", "MuJoCo", "pip install mujoco"),
         _usd(),
-        _module("trimesh", "trimesh", "pip install trimesh"),
         _render(),
         _freecad(),
         _module("yourdfpy", "yourdfpy", "pip install yourdfpy"),

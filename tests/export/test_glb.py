@@ -180,3 +180,51 @@ def test_khronos_validator_reports_no_errors(which: str, glb: bytes, tmp_path: P
     errors = [m for m in issues["messages"] if m["severity"] == 0]
     assert issues["numErrors"] == 0, errors[:10]
     assert issues["numWarnings"] == 0, issues["messages"][:10]
+
+
+def test_twins_share_their_arrays() -> None:
+    """Two copies of one shape, moved apart: the second's indices and normals are the first's
+    accessors (written once), its positions its own; the file holds each array once."""
+    import build123d as bd
+    brep = kernel.write_brep(bd.Cylinder(10, 30).wrapped)
+    parts = [CompiledPart(name=n, brep=brep, placement=trans(x, 0, 0), material="brass")
+             for n, x in (("left", -50), ("right", 50))]
+    data = glb_bytes(CompiledModel(name="twins", params={}, parts=parts, mates=[]))
+    tree, binary = _chunks(data)
+    left, right = (tree["meshes"][n["mesh"]]["primitives"][0] for n in tree["nodes"][1:])
+    assert left["indices"] == right["indices"]
+    assert left["attributes"]["NORMAL"] == right["attributes"]["NORMAL"]
+    assert left["attributes"]["POSITION"] != right["attributes"]["POSITION"]
+    assert len(tree["bufferViews"]) == len(tree["accessors"]) == 4
+    assert len(binary) == tree["buffers"][0]["byteLength"] == sum(
+        v["byteLength"] for v in tree["bufferViews"])
+    prims = _primitives(data)
+    assert np.allclose(prims["right"][1] - prims["left"][1], [100, 0, 0], atol=1e-4)
+
+
+def test_views_accessors_and_padding() -> None:
+    """The container as glTF 2.0 asks: chunk lengths multiples of 4 (JSON padded with spaces),
+    the total length in the header, views 4-aligned inside the buffer, each accessor's min
+    and max those of its data, the root node's matrix column-major; an empty model is a
+    valid file with its root node only."""
+    import build123d as bd
+    parts = [CompiledPart(name="block", brep=kernel.write_brep(bd.Box(40, 30, 20).wrapped),
+                          placement=trans(5, 0, 0), material="steel")]
+    data = glb_bytes(CompiledModel(name="one", params={}, parts=parts, mates=[]))
+    assert struct.unpack_from("<I", data, 8)[0] == len(data)
+    n = struct.unpack_from("<I", data, 12)[0]
+    assert n % 4 == 0 and data[20:20 + n].rstrip(b" ").endswith(b"}")
+    tree, binary = _chunks(data)
+    assert len(binary) % 4 == 0
+    assert all(v["byteOffset"] % 4 == 0 for v in tree["bufferViews"])
+    for i, acc in enumerate(tree["accessors"]):
+        arr = _accessor(tree, binary, i).reshape(acc["count"], -1)
+        assert acc["min"] == arr.min(axis=0).tolist() and acc["max"] == arr.max(axis=0).tolist()
+    m = np.array(tree["nodes"][0]["matrix"]).reshape(4, 4).T  # column-major
+    assert np.allclose(m @ [1000, 0, 0, 1], [1, 0, 0, 1]) and np.allclose(m @ [0, 1000, 0, 1], [0, 0, -1, 1])
+    nothing = glb_bytes(CompiledModel(name="none", params={}, parts=[], mates=[]))
+    n = struct.unpack_from("<I", nothing, 12)[0]
+    assert struct.unpack_from("<I", nothing, 8)[0] == len(nothing) == 20 + n  # no BIN chunk
+    empty = json.loads(nothing[20:])
+    assert empty["nodes"] == [{"name": "none", "matrix": tree["nodes"][0]["matrix"]}]
+    assert not any(k in empty for k in ("meshes", "accessors", "bufferViews", "buffers"))

@@ -94,23 +94,88 @@ def to_local_m(mesh: Mesh, frame: np.ndarray) -> Mesh:
 
 
 def _components(mesh: Mesh) -> list[Mesh]:
-    import trimesh
-    tm = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False)
+    """The pieces of ``mesh`` with at least :data:`MIN_COMPONENT_FACES` triangles, or
+    ``[mesh]`` when none has: triangles join where they share an edge that exactly two
+    triangles use (a touch at a vertex, or along an edge of three or more, does not join).
+    Pieces come in the order of their first triangle; each keeps its triangles' order and
+    the vertices they use, in their order."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    f = mesh.faces
+    m = len(f)
+    if m == 0:
+        return [mesh]
+    edges = np.sort(f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    order = np.lexsort((edges[:, 1], edges[:, 0]))
+    e = edges[order]
+    first = np.r_[True, np.any(e[1:] != e[:-1], axis=1)]
+    starts = np.flatnonzero(first)
+    counts = np.diff(np.r_[starts, len(e)])
+    pair = starts[counts == 2]
+    a, b = order[pair] // 3, order[pair + 1] // 3
+    _, labels = connected_components(coo_matrix((np.ones(len(a)), (a, b)), shape=(m, m)),
+                                     directed=False)
+    # pieces ordered by their first triangle, whatever order the labels came in
+    _, firsts, dense = np.unique(labels, return_index=True, return_inverse=True)
+    rank = np.empty(len(firsts), dtype=np.int64)
+    rank[np.argsort(firsts)] = np.arange(len(firsts))
+    key = rank[dense.reshape(-1)]
+    by_piece = np.argsort(key, kind="stable")
+    bounds = np.searchsorted(key[by_piece], np.arange(len(firsts) + 1))
     out = []
-    for c in tm.split(only_watertight=False):
-        if len(c.faces) >= MIN_COMPONENT_FACES:
-            out.append(Mesh(np.asarray(c.vertices), np.asarray(c.faces, dtype=np.int64)))
+    for i in range(len(firsts)):
+        idx = by_piece[bounds[i]:bounds[i + 1]]
+        if len(idx) < MIN_COMPONENT_FACES:
+            continue
+        used, local = np.unique(f[idx], return_inverse=True)
+        out.append(Mesh(mesh.vertices[used], local.reshape(-1, 3).astype(np.int64)))
     return out or [mesh]
 
 
 def _hull(mesh: Mesh) -> Mesh | None:
-    import trimesh
+    """The convex hull of ``mesh``'s vertices as a closed triangle mesh, every triangle wound
+    outward (by qhull's own facet normal), triangles of zero area left out; its vertices are
+    the hull's, in their order in ``mesh``. ``None`` when qhull cannot make one, even joggled,
+    or what it makes has no area (fewer than four points, or all of them on a line)."""
+    from scipy.spatial import ConvexHull, QhullError
+    points = np.asarray(mesh.vertices, dtype=np.float64)
     try:
-        h = trimesh.Trimesh(mesh.vertices, mesh.faces, process=False).convex_hull
-    except Exception as exc:  # qhull fails on flat components
+        try:
+            hull = ConvexHull(points, qhull_options="QbB Pp Qt")
+        except QhullError:  # flat or nearly so: joggled, a hull of (nearly) zero thickness
+            hull = ConvexHull(points, qhull_options="QJ")
+    except (QhullError, ValueError) as exc:
         log.debug("convex hull failed: %s", exc)
         return None
-    return Mesh(np.asarray(h.vertices), np.asarray(h.faces, dtype=np.int64))
+    used = np.sort(hull.vertices)
+    remap = np.zeros(len(points), dtype=np.int64)
+    remap[used] = np.arange(len(used))
+    faces = remap[hull.simplices]
+    vertices = points[used]
+    cross = np.cross(vertices[faces[:, 1]] - vertices[faces[:, 0]],
+                     vertices[faces[:, 2]] - vertices[faces[:, 0]])
+    keep = np.linalg.norm(cross, axis=1) > 0
+    inward = np.einsum("ij,ij->i", cross, hull.equations[:, :3]) < 0
+    faces[inward] = faces[inward][:, ::-1]
+    if keep.sum() < 4:  # nothing closed is left (a line, joggled)
+        return None
+    return Mesh(vertices, faces[keep])
+
+
+def _closed(faces: np.ndarray) -> bool:
+    """Whether every edge of the triangles is used by exactly two of them."""
+    if len(faces) == 0:
+        return False
+    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    _, counts = np.unique(edges, axis=0, return_counts=True)
+    return bool((counts == 2).all())
+
+
+def _volume(mesh: Mesh) -> float:
+    """The volume the triangles enclose (divergence theorem), unsigned."""
+    v, f = mesh.vertices, mesh.faces
+    return abs(float(np.einsum("ij,ij->i", v[f[:, 0]], np.cross(v[f[:, 1]], v[f[:, 2]])).sum()) / 6.0)
 
 
 def _coacd(mesh: Mesh) -> list[Mesh] | None:
@@ -133,15 +198,13 @@ def collision_pieces(part: CompiledPart) -> list[Mesh]:
     key = part.digest
     if key in _COLLISION:
         return _COLLISION[key]
-    import trimesh
     pieces: list[Mesh] = []
     for comp in _components(sim_mesh(part)):
         hull = _hull(comp)
         if hull is None:
             continue
-        tm = trimesh.Trimesh(comp.vertices, comp.faces, process=False)
-        vol = abs(float(tm.volume)) if tm.is_watertight else 0.0
-        hvol = abs(float(trimesh.Trimesh(hull.vertices, hull.faces, process=False).volume))
+        vol = _volume(comp) if _closed(comp.faces) else 0.0
+        hvol = _volume(hull)
         if vol > 0 and hvol > TOL.nonconvex_ratio * vol:
             dec = _coacd(comp)
             if dec:
@@ -213,10 +276,21 @@ def smooth_normals(mesh: Mesh, *, crease_deg: float = TOL.normal_crease_deg) -> 
     return Mesh(v[start[corner_of]], labels.reshape(m, 3).astype(np.int64)), normals
 
 
+#: A binary STL triangle: unit normal, three corners (little-endian float32), attribute word.
+STL_TRIANGLE = np.dtype([("normal", "<f4", (3,)), ("corners", "<f4", (3, 3)), ("attribute", "<u2")])
+
+
 def stl_bytes(mesh: Mesh) -> bytes:
-    """Binary STL of ``mesh`` (units as given)."""
-    import trimesh
-    return trimesh.Trimesh(mesh.vertices, mesh.faces, process=False).export(file_type="stl")
+    """Binary STL of ``mesh`` (units as given): an 80-byte header of zeros, the triangle
+    count, then each triangle with its unit normal (zero for a triangle of no area)."""
+    v, f = np.asarray(mesh.vertices, dtype=np.float64), mesh.faces
+    tri = v[f]
+    cross = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    norm = np.linalg.norm(cross, axis=1)
+    packed = np.zeros(len(f), dtype=STL_TRIANGLE)
+    packed["normal"] = cross / np.where(norm > 0, norm, 1.0)[:, None]
+    packed["corners"] = tri
+    return bytes(80) + np.uint32(len(f)).astype("<u4").tobytes() + packed.tobytes()
 
 
 def clear_cache() -> None:

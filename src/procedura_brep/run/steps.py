@@ -93,8 +93,10 @@ def warm_imports(*, render: bool = False) -> None:
     try:
         from .. import kernel
         kernel.warm_up()
+        import scipy.sparse.csgraph  # noqa: F401 - the gates' and the exports' mesh components
         import scipy.spatial  # noqa: F401 - imported early, beside the worker's boot
-        import trimesh  # noqa: F401 - imported early, beside the worker's boot
+        import shapely  # noqa: F401 - the articulation evidence's contact polygons
+        from PIL import Image, PngImagePlugin  # noqa: F401 - the sheet's PNG
 
         from .. import gates  # noqa: F401 - imported early, beside the worker's boot
         from ..export import bundle  # noqa: F401 - imported early, beside the worker's boot
