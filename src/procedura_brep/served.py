@@ -49,7 +49,7 @@ POLL_S = 0.05
 ANSWER_S = 30.0
 
 
-def _command(argv: list[str]) -> str | None:
+def subcommand(argv: list[str]) -> str | None:
     """The subcommand of ``argv`` (after the global ``-v``), None for help or none."""
     rest = [a for a in argv if a not in ("-v", "--verbose")]
     if not rest or any(a in ("--help", "-h") for a in argv):
@@ -64,7 +64,7 @@ def served(argv: list[str], path: Path | None = None) -> int | None:
     from .program.server import ENV_SWITCH, socket_path
     if os.environ.get(ENV_SWITCH, "").lower() in ("off", "0", "no", "false"):
         return None
-    if _command(argv) not in SERVED:
+    if subcommand(argv) not in SERVED:
         return None
     path = Path(path or socket_path())
     if not path.exists():
@@ -204,7 +204,7 @@ def run_served(conn: socket.socket, msg: dict[str, Any], fds: list[int], *,
     ok = (len(fds) == 3 and isinstance(argv, list) and all(isinstance(a, str) for a in argv)
           and isinstance(env, dict) and all(isinstance(k, str) and isinstance(v, str) for k, v in env.items())
           and isinstance(msg.get("cwd"), str) and isinstance(msg.get("umask"), int)
-          and _command(argv) in SERVED)
+          and subcommand(argv) in SERVED)
     if not ok or msg.get("digest") != code_digest():
         _close_fds(fds)
         _send(conn, {"error": "refused: other code, or not a served command"})
@@ -325,4 +325,4 @@ def _fresh_streams() -> None:
     sys.stdin, sys.stdout, sys.stderr = text(0, "r"), text(1, "w"), text(2, "w")
 
 
-__all__ = ["SERVED", "run_served", "served"]
+__all__ = ["SERVED", "run_served", "served", "subcommand"]

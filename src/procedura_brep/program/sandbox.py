@@ -1,7 +1,7 @@
 """The sandboxed compile, parent side: a warm worker process and the call that uses it.
 
 :class:`Worker` starts ``python -m procedura_brep.program.worker`` once (it imports build123d,
-~3 s) with an allowlisted environment (:data:`ENV_ALLOW`: no credentials can reach it), and
+~3 s) with an allowlisted environment (:data:`.spawn.ENV_ALLOW`: no credentials can reach it), and
 sends it one request per compile. The worker forks a fresh child per compile with CPU, memory,
 file-size and open-file limits, a scratch directory and an empty environment; a crash, hang or
 memory blow-up kills only that child and comes back as a :class:`CompileError` with a finding
@@ -23,7 +23,6 @@ import re
 import shutil
 import stat
 import subprocess
-import sys
 import tempfile
 import threading
 from dataclasses import asdict, dataclass, replace
@@ -32,37 +31,16 @@ from typing import Any
 from ..config import SANDBOX, SandboxLimits
 from ..errors import CompileError, ProceduraError, ProgramFormatError
 from .model import CompiledModel, Finding
+from .spawn import clean_env, take_early, worker_process
 from .trust import ResultError, finding_from_json, model_from_json
 
 log = logging.getLogger(__name__)
-#: The only environment variables the worker inherits (exact names or, ending in ``*``,
-#: prefixes): locale, paths, the Python path, headless-rendering switches and this tool's own
-#: non-secret settings. Everything else (API keys, ``DATABASE_URL``, ``GH_PAT`` ...) stays out.
-ENV_ALLOW = ("PATH", "HOME", "USER", "LOGNAME", "LANG", "LANGUAGE", "LC_*", "TZ", "TMPDIR",
-             "TEMP", "TMP", "PYTHONPATH", "PYTHONHASHSEED", "PYTHONDONTWRITEBYTECODE",
-             "VIRTUAL_ENV", "CONDA_PREFIX", "LD_LIBRARY_PATH", "MUJOCO_GL", "PYOPENGL_PLATFORM",
-             "EGL_PLATFORM", "MESA_*", "LIBGL_*", "GALLIUM_DRIVER", "DISPLAY", "XDG_RUNTIME_DIR",
-             "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "CASROOT", "CSF_*",
-             "FONTCONFIG_*", "PROCEDURA_BREP_NO_NETWORK", "PROCEDURA_UPDATE_GOLDEN")
-#: Even an allowlisted name is dropped when it looks like a credential (``PROCEDURA_*_KEY``).
-SECRET_RE = re.compile(r"KEY|TOKEN|SECRET|PASSWORD|PASSWD|CREDENTIAL|AUTH|COOKIE|SESSION|PAT\b", re.I)
 TEMP_PREFIXES = ("procedura-parts-", "procedura-compile-")
 SIGNAL_MEANING = {
     "SIGXCPU": "exceeded its CPU time limit", "SIGKILL": "was killed (CPU or memory limit)",
     "SIGSEGV": "crashed the CAD kernel (segmentation fault)", "SIGABRT": "aborted in the CAD kernel",
     "SIGXFSZ": "exceeded its file-size limit", "SIGBUS": "crashed (bus error)",
 }
-
-
-def _allowed(name: str) -> bool:
-    if SECRET_RE.search(name):
-        return False
-    return any(name == a or (a.endswith("*") and name.startswith(a[:-1])) for a in ENV_ALLOW)
-
-
-def clean_env() -> dict[str, str]:
-    """The worker's environment: only the allowlisted variables (:data:`ENV_ALLOW`)."""
-    return {k: v for k, v in os.environ.items() if _allowed(k)}
 
 
 def _pid_alive(pid: int) -> bool:
@@ -132,13 +110,15 @@ class Worker:
     def start(self) -> "Worker":
         """Start the worker process (idempotent); returns immediately, ready on first use."""
         if self._proc is None or self._proc.poll() is not None:
-            self._proc = subprocess.Popen(
-                # -P: the start folder (the temp dir) is not on the import path
-                [sys.executable, "-P", "-m", "procedura_brep.program.worker"], stdin=subprocess.PIPE,
-                stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=clean_env(),
-                cwd=tempfile.gettempdir())
+            self._proc = worker_process()
             self._ready = False
         return self
+
+    def adopt(self, proc: subprocess.Popen[str]) -> None:
+        """Take ``proc``, a worker process started elsewhere (:func:`.spawn.start_early`), as
+        this worker's process (it must have no running one of its own)."""
+        assert self._proc is None or self._proc.poll() is not None, "a worker runs already"
+        self._proc, self._ready = proc, False
 
     def _ensure_ready(self) -> subprocess.Popen[str]:
         self.start()
@@ -423,15 +403,22 @@ _DEFAULT: Worker | None = None
 
 def default_worker() -> Worker:
     """The process-wide worker: a running warm server's when one answers with this code
-    (:func:`connect_server`), else a local one started on first use, on the persistent part
-    store (:func:`.cache.persistent_dir`); stopped at exit."""
+    (:func:`connect_server`), else a local one on the persistent part store
+    (:func:`.cache.persistent_dir`), in the process the entry point started early when there
+    is one (:func:`.spawn.start_early`), else started on first use; stopped at exit."""
     global _DEFAULT
     if _DEFAULT is None:
+        early = take_early()  # the entry point's, started beside the command line's start
         if (server := connect_server()) is not None:
             _DEFAULT = server
+            if early is not None:
+                early.kill()
+                early.wait()
         else:
             from .cache import persistent_dir
             _DEFAULT = Worker(cache_dir=persistent_dir())
+            if early is not None:
+                _DEFAULT.adopt(early)
         atexit.register(_DEFAULT.close)
     return _DEFAULT.start()
 
