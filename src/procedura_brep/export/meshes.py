@@ -106,12 +106,7 @@ def _components(mesh: Mesh) -> list[Mesh]:
     m = len(f)
     if m == 0:
         return [mesh]
-    edges = np.sort(f[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    order = np.lexsort((edges[:, 1], edges[:, 0]))
-    e = edges[order]
-    first = np.r_[True, np.any(e[1:] != e[:-1], axis=1)]
-    starts = np.flatnonzero(first)
-    counts = np.diff(np.r_[starts, len(e)])
+    order, starts, counts = _edge_groups(f)
     pair = starts[counts == 2]
     a, b = order[pair] // 3, order[pair + 1] // 3
     _, labels = connected_components(coo_matrix((np.ones(len(a)), (a, b)), shape=(m, m)),
@@ -163,13 +158,21 @@ def _hull(mesh: Mesh) -> Mesh | None:
     return Mesh(vertices, faces[keep])
 
 
+def _edge_groups(faces: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The triangles' edges (three per triangle; edge ``3 * t + k`` runs from its corner ``k``)
+    grouped by their two vertices: ``(order, starts, counts)``, where ``order`` lists the
+    edges sorted by vertex pair, and each group of equal edges starts at ``starts[g]`` in it
+    and holds ``counts[g]`` of them."""
+    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    order = np.lexsort((edges[:, 1], edges[:, 0]))
+    e = edges[order]
+    starts = np.flatnonzero(np.r_[True, np.any(e[1:] != e[:-1], axis=1)])
+    return order, starts, np.diff(np.r_[starts, len(e)])
+
+
 def _closed(faces: np.ndarray) -> bool:
     """Whether every edge of the triangles is used by exactly two of them."""
-    if len(faces) == 0:
-        return False
-    edges = np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
-    _, counts = np.unique(edges, axis=0, return_counts=True)
-    return bool((counts == 2).all())
+    return len(faces) > 0 and bool((_edge_groups(faces)[2] == 2).all())
 
 
 def _volume(mesh: Mesh) -> float:
