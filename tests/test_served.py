@@ -286,3 +286,24 @@ def test_what_a_client_does_once_it_has_asked(tmp_path, monkeypatch, capfd, then
     t.join(5)
     err = capfd.readouterr().err
     assert ("went away" in err) == (then == "vanish")
+
+
+def test_a_usage_error_names_the_program_as_the_client_was_called(sock, tmp_path):
+    """The server runs as ``python -m procedura_brep``; a client called as the console script
+    (``procedura-brep``) gets the same usage line served as local, with its own name."""
+    script = ("import sys\n"
+              "sys.argv[0] = '/usr/local/bin/procedura-brep'\n"
+              "from procedura_brep.entry import main\n"
+              "main()\n")
+    errs = {}
+    for served in (True, False):
+        env = {**os.environ, "PROCEDURA_BREP_SOCKET": str(sock)}
+        env.pop("PROCEDURA_BREP_SERVER", None) if served else env.update(PROCEDURA_BREP_SERVER="off")
+        proc = subprocess.run([sys.executable, "-c", script, "-v", "build", "--nope"], env=env,
+                              cwd=tmp_path, capture_output=True, text=True, timeout=120)
+        assert proc.returncode == 2, proc.stderr
+        errs[served] = proc.stderr
+    assert "running in a fork of the warm server" in errs[True]  # it was served
+    usage = [ln for ln in errs[True].splitlines() if "Usage:" in ln]
+    assert usage and usage == [ln for ln in errs[False].splitlines() if "Usage:" in ln]
+    assert "procedura-brep build" in usage[0] and "python -m" not in usage[0]

@@ -130,7 +130,7 @@ def _ask(argv: list[str], path: Path, relay: _Relay) -> int | None:
         umask = os.umask(0o022)
         os.umask(umask)
         request = {"op": "run", "argv": argv, "cwd": os.getcwd(), "env": dict(os.environ),
-                   "umask": umask, "digest": digest}
+                   "umask": umask, "digest": digest, "prog": _prog()}
         socket.send_fds(conn, [(json.dumps(request) + "\n").encode()], [0, 1, 2])
     except OSError:  # no answer, or another server's: nothing was asked to run
         conn.close()
@@ -154,6 +154,14 @@ def _ask(argv: list[str], path: Path, relay: _Relay) -> int | None:
                     f"(pid {started['pid']})\n".encode())
     relay.start(started["pid"])
     return _follow(lines)
+
+
+def _prog() -> list[Any]:
+    """``[argv[0], __main__'s package]``: what the command line names itself after in usage
+    lines (``procedura-brep``, or ``python -m procedura_brep``), for the fork to name itself
+    the same."""
+    return [sys.argv[0] if sys.argv else "procedura-brep",
+            getattr(sys.modules.get("__main__"), "__package__", None)]
 
 
 def _answer(conn: socket.socket, lines: Any, relay: _Relay) -> dict[str, Any] | int | None:
@@ -293,7 +301,12 @@ def _become(conn: socket.socket, msg: dict[str, Any], fds: list[int], command: C
         logging.root.handlers.clear()  # the command configures its own, on the new stderr
         from . import interrupt
         interrupt.forget()
-        sys.argv = ["procedura-brep", *msg["argv"]]
+        prog = msg.get("prog")
+        argv0, package = prog if isinstance(prog, list) and len(prog) == 2 else ("procedura-brep", None)
+        sys.argv = [str(argv0), *msg["argv"]]
+        main = sys.modules.get("__main__")
+        if main is not None:  # the name usage lines give the program: the client's, not the server's
+            main.__package__ = package if isinstance(package, str) else None
         command()  # the command line's main: leaves with os._exit
         code = 0
     except SystemExit as exc:
