@@ -73,12 +73,11 @@ def find_wheels(model, links: dict[str, list[str]], joints: list, subtree, *,
     continuous = [j for j in joints if j.kind.wheel]
     if not continuous:
         return []
-    from .. import kernel
     lows: dict[str, float] = {}
 
     def lowest(name: str) -> float:  # the exact lowest point: no tessellation (a long thread's is seconds)
         if name not in lows:
-            lows[name] = float(kernel.bbox(model.part(name).shape(), optimal=True)[0][2])
+            lows[name] = float(model.part(name).extent(UP)[0])
         return lows[name]
     floor = min(lowest(p.name) for p in model.parts)
     known = (evidence or {}).get("parts", {})

@@ -344,8 +344,7 @@ class SweepScene:
 
     def _local_box(self, name: str) -> tuple[np.ndarray, np.ndarray]:
         if name not in self._box:
-            lo, hi = kernel.bbox(self.model.part(name).local_shape(), optimal=True)
-            self._box[name] = (np.array(lo), np.array(hi))
+            self._box[name] = self.model.part(name).local_box()
         return self._box[name]
 
     def obb(self, name: str, motion: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -358,7 +357,7 @@ class SweepScene:
         """Exact (min, max) of the placed part along a world unit ``direction``."""
         key = (name, np.round(direction, 12).tobytes())
         if key not in self._extent:
-            self._extent[key] = _height_range(self.model.part(name).shape(), direction)
+            self._extent[key] = self.model.part(name).extent(direction)
         return self._extent[key]
 
     def _overlap(self, a: str, ma: np.ndarray, b: str, where: str = "rest") -> Overlap:
