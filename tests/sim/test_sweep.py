@@ -230,3 +230,63 @@ def test_a_stopped_sweep_is_not_verified_never_a_failure(fins, monkeypatch, tmp_
     assert b2.measured["joints"]["blade_pivot"]["not_verified"]
     (f,) = [f for f in failures(report) if f.code == "not-verified"]
     assert f.severity == "warning" and "battery B2 not verified" in f.message
+
+
+def _reaches(scene, joint, a: str, b: str) -> bool:
+    """Whether ``a``'s swept envelope over the joint's range reaches ``b``'s box (grown by the
+    slack), written out pair by pair and independently of ``SweepScene``'s batched test."""
+    frame_inv = rigid_inverse(joint.frame)
+
+    def corners(name: str) -> np.ndarray:
+        lo, hi = scene.model.part(name).local_box()
+        t = frame_inv @ scene.model.part(name).placement
+        return np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                         for z in (lo[2], hi[2])]) @ t[:3, :3].T + t[:3, 3]
+    ca, cb = corners(a), corners(b)
+    blo, bhi = cb.min(axis=0) - TOL.sweep_box_slack_mm, cb.max(axis=0) + TOL.sweep_box_slack_mm
+    if joint.kind.slides:  # the box swept along the slide's axis (the frame's Z), in mm
+        lo, hi = ca.min(axis=0), ca.max(axis=0)
+        lo[2] += 1000.0 * min(0.0, float(joint.lower))
+        hi[2] += 1000.0 * max(0.0, float(joint.upper))
+        return bool(np.all(lo <= bhi) and np.all(blo <= hi))
+    near = np.clip(0.0, blo, bhi)  # b's box point nearest the axis (or the ball's centre)
+    if joint.kind.ball:
+        return float(np.linalg.norm(near)) <= float(np.linalg.norm(ca, axis=1).max())
+    reach = float(np.linalg.norm(ca[:, :2], axis=1).max())
+    return bool(ca[:, 2].min() <= bhi[2] and blo[2] <= ca[:, 2].max()
+                and float(np.linalg.norm(near[:2])) <= reach)
+
+
+@pytest.mark.parametrize("program", ["hinges", "transmission", "rover"])
+def test_the_batched_envelope_test_keeps_the_pairs_the_pairwise_one_keeps(program, worker):
+    """``SweepScene.pairs`` tests every moved part's swept envelope against all the fixed
+    parts' boxes at once; what it keeps is what the envelope test pair by pair (written out
+    here) and the rest of ``_may_collide`` keep, pair for pair and in order, on every joint
+    (revolute rows of hinges, a lead screw's slide and turns, the rover's wheels and arm)."""
+    from procedura_brep.testing.programs import hinge_row
+    root = Path(__file__).resolve().parents[2]
+    src = {"hinges": lambda: hinge_row(12),
+           "transmission": lambda: (root / "tests" / "program" / "transmission.py").read_text(),
+           "rover": lambda: (root / "golden" / "rover" / "program.py").read_text()}[program]()
+    model = worker.compile(src)
+    assert model.ok
+    art = articulate(model)
+    scene = SweepScene(model, art)
+    reached = pruned = 0
+    for joint in art.joints:
+        swept, _ = scene.pairs(joint)
+        moving = [p for lk in art.subtree(joint.child) for p in art.link(lk).parts]
+        meshed = scene._meshed({joint.name})
+        one_by_one = []
+        for a in moving:
+            for b in (p.name for p in model.parts if p.name not in moving):
+                if frozenset((a, b)) in meshed:
+                    continue
+                if not _reaches(scene, joint, a, b):
+                    pruned += 1
+                    continue
+                reached += 1
+                if scene._may_collide(joint, a, b, envelope=False):
+                    one_by_one.append((a, b))
+        assert swept == one_by_one, joint.name
+    assert reached and pruned  # both outcomes of the envelope test were exercised

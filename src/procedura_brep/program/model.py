@@ -303,6 +303,7 @@ class CompiledModel:
     isolation: str = ""
     #: The ``couple(...)`` statements, checked and resolved (ratio and sign), in program order.
     couplings: list[CompiledCoupling] = field(default_factory=list)
+    _index: dict[str, int] | None = field(default=None, init=False, repr=False, compare=False)
 
     def material_of(self, part: CompiledPart) -> Material:
         """The library entry of ``part``'s material (a MaterialError lists the library)."""
@@ -314,9 +315,17 @@ class CompiledModel:
         return {k: m for k, m in self.materials.items() if k not in MATERIALS}
 
     def part(self, name: str) -> CompiledPart:
-        for p in self.parts:
-            if p.name == name:
-                return p
+        """The part named ``name`` (by a name index, remade when ``parts`` changed: a hit is
+        checked against the list)."""
+        index = self._index
+        i = index.get(name) if index is not None else None
+        if i is None or i >= len(self.parts) or self.parts[i].name != name:
+            index = self._index = {}
+            for k, p in enumerate(self.parts):
+                index.setdefault(p.name, k)
+            i = index.get(name)
+        if i is not None:
+            return self.parts[i]
         raise KeyError(f"no part named {name!r}; parts: {', '.join(p.name for p in self.parts)}")
 
     @property

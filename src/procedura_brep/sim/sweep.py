@@ -389,22 +389,45 @@ class SweepScene:
         t = frame_inv @ self.model.part(name).placement
         return _corners(lo, hi) @ t[:3, :3].T + t[:3, 3]
 
-    def _may_meet(self, joint: Joint, a: str, b: str, frame_inv: np.ndarray) -> bool:
-        """False if ``a``'s swept envelope over the whole joint range cannot reach ``b``'s box."""
-        ca, cb = self._corners_in(a, frame_inv), self._corners_in(b, frame_inv)
-        blo, bhi = cb.min(axis=0) - TOL.sweep_box_slack_mm, cb.max(axis=0) + TOL.sweep_box_slack_mm
+    def _boxes_in(self, names: list[str], frame_inv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(corners, lo, hi)`` of the parts' local boxes in the coordinates of a joint frame:
+        their corners (n, 8, 3) and the axis-aligned boxes (n, 3) around them, grown by
+        ``TOL.sweep_box_slack_mm``."""
+        if not names:
+            empty = np.zeros((0, 3))
+            return np.zeros((0, 8, 3)), empty, empty
+        local = np.stack([_corners(*self._local_box(n)) for n in names])  # (n, 8, 3)
+        t = frame_inv @ np.stack([self.model.part(n).placement for n in names])  # (n, 4, 4)
+        pts = np.einsum("nkj,nij->nki", local, t[:, :3, :3]) + t[:, None, :3, 3]
+        slack = TOL.sweep_box_slack_mm
+        return pts, pts.min(axis=1) - slack, pts.max(axis=1) + slack
+
+    @staticmethod
+    def _envelope_meets(joint: Joint, ca: np.ndarray, blo: np.ndarray, bhi: np.ndarray) -> np.ndarray:
+        """Per box (``blo``, ``bhi``: (n, 3) in the joint frame's coordinates), whether the swept
+        envelope over the whole joint range of a part whose box corners there are ``ca`` (8, 3)
+        can reach it."""
         if joint.kind.slides:
             lo, hi = ca.min(axis=0), ca.max(axis=0)
             lo[2] += 1000.0 * min(0.0, float(joint.lower))  # type: ignore[arg-type]  # a swept joint has limits
             hi[2] += 1000.0 * max(0.0, float(joint.upper))  # type: ignore[arg-type]  # a swept joint has limits
-            return bool(np.all(lo <= bhi) and np.all(blo <= hi))
-        # the box point nearest the joint origin (spherical) or axis (revolute)
+            out: np.ndarray = np.all(lo <= bhi, axis=1) & np.all(blo <= hi, axis=1)
+            return out
+        # each box's point nearest the joint origin (spherical) or axis (revolute)
         near = np.clip(0.0, blo, bhi)
         if joint.kind.ball:
-            return float(np.linalg.norm(near)) <= float(np.linalg.norm(ca, axis=1).max())
+            out = np.linalg.norm(near, axis=1) <= float(np.linalg.norm(ca, axis=1).max())
+            return out
         r_a = float(np.linalg.norm(ca[:, :2], axis=1).max())
-        z_ok = ca[:, 2].min() <= bhi[2] and blo[2] <= ca[:, 2].max()
-        return bool(z_ok and float(np.linalg.norm(near[:2])) <= r_a)
+        z_ok = (ca[:, 2].min() <= bhi[:, 2]) & (blo[:, 2] <= ca[:, 2].max())
+        out = z_ok & (np.linalg.norm(near[:, :2], axis=1) <= r_a)
+        return out
+
+    def _may_meet(self, joint: Joint, a: str, b: str, frame_inv: np.ndarray) -> bool:
+        """False if ``a``'s swept envelope over the whole joint range cannot reach ``b``'s box."""
+        (ca,), _, _ = self._boxes_in([a], frame_inv)
+        _, blo, bhi = self._boxes_in([b], frame_inv)
+        return bool(self._envelope_meets(joint, ca, blo, bhi)[0])
 
     def pairs(self, joint: Joint) -> tuple[list[tuple[str, str]], list[tuple[str, str]]]:
         """(pairs to sweep, pairs that interfere at rest) as (moved, fixed) part names.
@@ -423,9 +446,14 @@ class SweepScene:
         fixed = [p.name for p in self.model.parts if p.name not in set(moving)]
         meshed = self._meshed({joint.name})
         keep, at_rest = [], []
-        for a in moving:
-            for b in fixed:
-                if frozenset((a, b)) in meshed or not self._may_collide(joint, a, b):
+        # the envelope test for every pair at once (a loop of pairs was quadratic in Python)
+        frame_inv = rigid_inverse(joint.frame)
+        corners, _, _ = self._boxes_in(moving, frame_inv)
+        _, blo, bhi = self._boxes_in(fixed, frame_inv)
+        for a, ca in zip(moving, corners):
+            meets = self._envelope_meets(joint, ca, blo, bhi)
+            for b in (b for b, ok in zip(fixed, meets) if ok):
+                if frozenset((a, b)) in meshed or not self._may_collide(joint, a, b, envelope=False):
                     continue
                 if self.rest(a, b).depth > TOL.sweep_rest_interference_mm:
                     at_rest.append((a, b))
@@ -439,11 +467,12 @@ class SweepScene:
         return {frozenset(c.source.mesh) for c in self.art.couplings
                 if {c.driven, c.driver} & joints and all(c.source.mesh)}
 
-    def _may_collide(self, joint: Joint, a: str, b: str) -> bool:
+    def _may_collide(self, joint: Joint, a: str, b: str, *, envelope: bool = True) -> bool:
         """False when moving ``a`` by ``joint`` over its range cannot bring it into ``b``: its
-        swept envelope misses ``b``'s box, or their exact extents along a direction the motion
-        preserves overlap by less than ``TOL.sim_penetration_mm``."""
-        if not self._may_meet(joint, a, b, rigid_inverse(joint.frame)):
+        swept envelope misses ``b``'s box (not tested again with ``envelope=False``: the
+        caller has), or their exact extents along a direction the motion preserves overlap by
+        less than ``TOL.sim_penetration_mm``."""
+        if envelope and not self._may_meet(joint, a, b, rigid_inverse(joint.frame)):
             return False
         dirs = [d / np.linalg.norm(d) for d in self._invariant_dirs(joint)]
         if any(_slab_gap(self.extent(a, d), self.extent(b, d)) for d in dirs):
