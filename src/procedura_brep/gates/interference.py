@@ -138,15 +138,21 @@ def _judge(a: str, b: str, com: Common, mates: list[CompiledMate],
 def scan(model: CompiledModel) -> list[PairOverlap]:
     """Every overlapping pair of parts with its verdict (allowed ones included), plan order."""
     out = []
+    by_pair: dict[frozenset[str], list[CompiledMate]] = {}  # the mates of each pair of partners
+    by_part: dict[str, list[int]] = {}  # each part's mates, by their place in model.mates
+    for k, m in enumerate(model.mates):
+        by_pair.setdefault(frozenset((m.child, m.parent)), []).append(m)
+        for name in dict.fromkeys((m.child, m.parent)):
+            by_part.setdefault(name, []).append(k)
     for i, j in candidate_pairs(model):
         pa, pb = model.parts[i], model.parts[j]
         if pa.owner == pb.owner:
             continue  # a colour block and its painted part (or two of its blocks) share cut faces
         ga, gb = part_geometry(pa), part_geometry(pb)
         com = common(ga, pa.shape(), gb, pb.shape())
-        mates = [m for m in model.mates if {m.child, m.parent} == {pa.name, pb.name}]
-        frames = [m.world_frame for m in model.mates
-                  if {m.child, m.parent} & {pa.name, pb.name}]
+        mates = by_pair.get(frozenset((pa.name, pb.name)), [])
+        frames = [model.mates[k].world_frame
+                  for k in sorted({*by_part.get(pa.name, ()), *by_part.get(pb.name, ())})]
         row = _judge(pa.name, pb.name, com, mates, frames)
         if row is not None:
             out.append(row)
