@@ -44,7 +44,9 @@ def test_the_overlapped_export_writes_the_serial_files_byte_for_byte(tmp_path, w
         runs[on] = out
     a, b = _files(runs[True]), _files(runs[False])
     assert set(a) == set(b) and len(a) > 8, sorted(a)
-    assert [k for k in a if a[k] != b[k]] == ["report.json", "summary.md"]
+    # only the files that carry timings may differ (summary.md rounds them to 0.01 s: two fast
+    # builds can give the same text)
+    assert {k for k in a if a[k] != b[k]} <= {"report.json", "summary.md"}
     assert not [p for p in runs[True].rglob("*") if p.name.startswith(".")]
     timings = _report(runs[True])["timings"]
     assert {"tessellate_s", "export_wait_s", "export_step_s", "gates_s"} <= set(timings)
