@@ -176,9 +176,10 @@ def _closed(faces: np.ndarray) -> bool:
 
 
 def _volume(mesh: Mesh) -> float:
-    """The volume the triangles enclose (divergence theorem), unsigned."""
-    v, f = mesh.vertices, mesh.faces
-    return abs(float(np.einsum("ij,ij->i", v[f[:, 0]], np.cross(v[f[:, 1]], v[f[:, 2]])).sum()) / 6.0)
+    """The volume the triangles enclose (:func:`procedura_brep.gates.geometry.signed_volume`),
+    unsigned."""
+    from ..gates.geometry import signed_volume
+    return abs(signed_volume(mesh.vertices, mesh.faces))
 
 
 def _coacd(mesh: Mesh) -> list[Mesh] | None:
@@ -242,13 +243,8 @@ def smooth_normals(mesh: Mesh, *, crease_deg: float = TOL.normal_crease_deg) -> 
     start = f.reshape(-1)
     nxt = (np.arange(m)[:, None] * 3 + np.array([1, 2, 0])).reshape(-1)
     end = start[nxt]
-    key = np.sort(np.stack([start, end], axis=1), axis=1)
-    order = np.lexsort((key[:, 1], key[:, 0]))
-    ks = key[order]
-    first = np.r_[True, np.any(ks[1:] != ks[:-1], axis=1)]
-    group = np.cumsum(first) - 1
-    counts = np.bincount(group)
-    pos = np.flatnonzero(first)[counts == 2]  # manifold edges: exactly two half-edges
+    order, starts, counts = _edge_groups(f)  # the half-edges h, grouped by their two vertices
+    pos = starts[counts == 2]  # manifold edges: exactly two half-edges
     h1, h2 = order[pos], order[pos + 1]
     smooth = np.einsum("ij,ij->i", unit[h1 // 3], unit[h2 // 3]) > np.cos(np.radians(crease_deg))
     h1, h2 = h1[smooth], h2[smooth]
