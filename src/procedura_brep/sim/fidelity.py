@@ -218,9 +218,6 @@ def _mimic_problems(art: Articulation, u, m) -> list[str]:
 #: Validators B6 runs (every registered physics validator plus stage metadata).
 def _validator_names() -> list[str]:
     from pxr import UsdValidation
-
-    from ..export.usd import serial_usd
-    serial_usd()  # validators run on USD's work threads otherwise (fork safety: see serial_usd)
     reg = UsdValidation.ValidationRegistry()
     return [md.name for md in reg.GetAllValidatorMetadata()
             if md.name.startswith(("usdPhysicsValidators:", "usdGeomValidators:StageMetadata"))]

@@ -290,7 +290,6 @@ class SweepScene:
         self.model, self.art = model, art
         self._box: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._rest: dict[tuple[str, str], Overlap] = {}
-        self._extent: dict[tuple[str, bytes], tuple[float, float]] = {}
         self._surface: dict[tuple[str, bytes, bytes], tuple[np.ndarray, np.ndarray, float, np.ndarray, np.ndarray]] = {}
         self._pair_cover: dict[tuple, tuple[tuple[Cover, cKDTree | None], tuple[Cover, cKDTree | None]]] = {}
         self._faces: dict[str, list[Face]] = {}  # each part's meshed faces, read once
@@ -354,11 +353,9 @@ class SweepScene:
         return t[:3, :3] @ ((lo + hi) / 2) + t[:3, 3], t[:3, :3], (hi - lo) / 2
 
     def extent(self, name: str, direction: np.ndarray) -> tuple[float, float]:
-        """Exact (min, max) of the placed part along a world unit ``direction``."""
-        key = (name, np.round(direction, 12).tobytes())
-        if key not in self._extent:
-            self._extent[key] = self.model.part(name).extent(direction)
-        return self._extent[key]
+        """Exact (min, max) of the placed part along a world unit ``direction`` (cached by the
+        part's local geometry: :meth:`procedura_brep.program.model.CompiledPart.extent`)."""
+        return self.model.part(name).extent(direction)
 
     def _overlap(self, a: str, ma: np.ndarray, b: str, where: str = "rest") -> Overlap:
         pa, pb = self.model.part(a), self.model.part(b)
