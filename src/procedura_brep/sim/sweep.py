@@ -440,7 +440,8 @@ class SweepScene:
         too (its finding is the increase over the rest thickness) and also listed.
         """
         moving = [p for lk in self.art.subtree(joint.child) for p in self.art.link(lk).parts]
-        fixed = [p.name for p in self.model.parts if p.name not in set(moving)]
+        moved = set(moving)
+        fixed = [p.name for p in self.model.parts if p.name not in moved]
         meshed = self._meshed({joint.name})
         keep, at_rest = [], []
         # the envelope test for every pair at once (a loop of pairs was quadratic in Python)
